@@ -1,0 +1,142 @@
+//! Configuration files (TOML): raw text → validated, typed configuration.
+//!
+//! A file is parsed once at startup; relative paths inside it (the URDF) resolve
+//! against the directory of the file, like Cargo manifests. Every error names the
+//! file and the key that is wrong.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::kinematics::{ChainSpec, Kinematics, KinematicsError, KinematicsSettings, RobotModel};
+
+/// Errors while reading or validating a configuration file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read config {path}: {source}")]
+    Io {
+        /// Config path.
+        path: PathBuf,
+        /// Underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The TOML is malformed or has unknown/mistyped keys.
+    #[error("invalid config {path}: {message}")]
+    Parse {
+        /// Config path.
+        path: PathBuf,
+        /// Parser message (with line and column).
+        message: String,
+    },
+    /// The robot section does not describe a valid robot.
+    #[error("config {path}: {source}")]
+    Robot {
+        /// Config path.
+        path: PathBuf,
+        /// What the kinematics layer rejected.
+        #[source]
+        source: KinematicsError,
+    },
+}
+
+/// Overrides of one joint's limits (SI units).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct LimitOverride {
+    /// Velocity limit (rad/s or m/s).
+    pub velocity: Option<f64>,
+    /// Acceleration limit (rad/s² or m/s²); supplies one where the URDF has none.
+    pub acceleration: Option<f64>,
+}
+
+/// `[robot]`: which URDF, which chains, which joints are held fixed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotConfig {
+    /// URDF path, relative to the config file's directory unless absolute.
+    pub urdf: PathBuf,
+    /// Kinematic chains, stacked in this order to form `Q` and `X`.
+    pub chains: Vec<ChainSpec>,
+    /// Movable joints outside the controlled set held at these values (rad or m).
+    #[serde(default)]
+    pub held: BTreeMap<String, f64>,
+    /// Per-joint limit overrides.
+    #[serde(default)]
+    pub limits: BTreeMap<String, LimitOverride>,
+}
+
+/// A loaded robot: the URDF model (with overrides applied) and its chain kinematics.
+#[derive(Debug, Clone)]
+pub struct LoadedRobot {
+    /// The URDF tree.
+    pub model: RobotModel,
+    /// The stacked chains with the pseudo-inverse settings.
+    pub kinematics: Kinematics,
+}
+
+impl RobotConfig {
+    /// Loads the URDF (resolved against `base_dir`) and builds the kinematics.
+    pub fn load(&self, base_dir: &Path, settings: &KinematicsSettings) -> Result<LoadedRobot, KinematicsError> {
+        let path = if self.urdf.is_absolute() { self.urdf.clone() } else { base_dir.join(&self.urdf) };
+        let mut model = RobotModel::from_urdf_file(&path)?;
+        for (joint, o) in &self.limits {
+            if let Some(a) = o.acceleration {
+                model.set_acceleration_limit(joint, a)?;
+            }
+            if let Some(v) = o.velocity {
+                model.set_velocity_limit(joint, v)?;
+            }
+        }
+        let held: HashMap<String, f64> = self.held.iter().map(|(k, v)| (k.clone(), *v)).collect();
+        let kinematics = Kinematics::new(&model, &self.chains, &held, settings)?;
+        Ok(LoadedRobot { model, kinematics })
+    }
+}
+
+/// A whole configuration file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// The robot and its chains.
+    pub robot: RobotConfig,
+    /// Pseudo-inverse settings (damping, metric, singularity threshold).
+    #[serde(default)]
+    pub kinematics: KinematicsSettings,
+    /// Directory of the file, for resolving relative paths (not read from TOML).
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+    /// Path of the file (not read from TOML).
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+impl Config {
+    /// Reads and parses a config file.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Self, ConfigError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ConfigError::Io { path: path.to_path_buf(), source })?;
+        let mut cfg = Self::from_toml_str(&text, path)?;
+        cfg.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Ok(cfg)
+    }
+
+    /// Parses TOML text; `path` labels errors.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        let mut cfg: Self = toml::from_str(text)
+            .map_err(|e| ConfigError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
+        cfg.path = path.to_path_buf();
+        Ok(cfg)
+    }
+
+    /// Loads the robot described by `[robot]` and `[kinematics]`.
+    pub fn load_robot(&self) -> Result<LoadedRobot, ConfigError> {
+        self.robot
+            .load(&self.base_dir, &self.kinematics)
+            .map_err(|source| ConfigError::Robot { path: self.path.clone(), source })
+    }
+}

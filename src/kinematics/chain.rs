@@ -1,0 +1,282 @@
+//! Serial kinematic chain: forward kinematics and the geometric Jacobian.
+//!
+//! A chain from a base link `b` to a tip link `t` is the joint path `j_1 … j_n` of the
+//! URDF tree. Fixed joints and movable joints held at configured values are folded
+//! into constant transforms, so that
+//!
+//! `T_bt(q) = A_0 · M_1(q_1) · A_1 · M_2(q_2) ⋯ M_n(q_n) · A_n`,
+//!
+//! with `M_i` a rotation about (revolute) or translation along (prismatic) the unit
+//! axis `a_i`, and `A_n` including the configured tool offset. The geometric Jacobian
+//! (base frame, reference point at the tip, twist `[v; ω]`) has columns
+//! `[z_i × (p_t − p_i); z_i]` for revolute and `[z_i; 0]` for prismatic joints, with
+//! `z_i` the world axis and `p_i` the world origin of joint `i` (Siciliano et al.,
+//! *Robotics: Modelling, Planning and Control*, eq. 3.30). This is `J(q) = df|_q`
+//! of the paper (Sec. II-C).
+//!
+//! All per-tick functions write into a caller-owned [`ChainWorkspace`] and allocate nothing.
+
+use std::collections::HashMap;
+
+use nalgebra::{IsometryMatrix3, Matrix3xX, Matrix6xX, Rotation3, Unit, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::error::KinematicsError;
+use super::model::{JointKind, JointLimits, RobotModel};
+
+/// Which coordinates of the tip form the task-space point `x = f(q)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum TaskSpace {
+    /// Tip position `(x, y)` in the base frame (planar robots); `X = R²`.
+    Xy,
+    /// Tip position `(x, y, z)` in the base frame; `X = R³`.
+    #[default]
+    Xyz,
+}
+
+impl TaskSpace {
+    /// Dimension of the task space (2 or 3).
+    pub const fn dim(self) -> usize {
+        match self {
+            Self::Xy => 2,
+            Self::Xyz => 3,
+        }
+    }
+}
+
+/// What a chain is made of, by name (from configuration).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChainSpec {
+    /// Chain name (e.g. `left`), used in messages and as a key.
+    pub name: String,
+    /// Base link name; task-space points are expressed in this link's frame.
+    pub base: String,
+    /// Tip link name.
+    pub tip: String,
+    /// Tool offset from the tip link frame: translation (m) and roll-pitch-yaw (rad).
+    #[serde(default)]
+    pub tool: ToolOffset,
+    /// Task-space coordinates of this chain.
+    #[serde(default)]
+    pub task: TaskSpace,
+}
+
+/// A fixed transform from the tip link frame to the tool point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ToolOffset {
+    /// Translation in the tip link frame (m).
+    #[serde(default)]
+    pub xyz: [f64; 3],
+    /// Fixed-axis roll, pitch, yaw (rad).
+    #[serde(default)]
+    pub rpy: [f64; 3],
+}
+
+impl ToolOffset {
+    /// The offset as a rigid transform.
+    pub fn isometry(&self) -> IsometryMatrix3<f64> {
+        IsometryMatrix3::from_parts(
+            Vector3::from(self.xyz).into(),
+            Rotation3::from_euler_angles(self.rpy[0], self.rpy[1], self.rpy[2]),
+        )
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Segment {
+    /// Constant transform from the previous joint's moved frame to this joint frame.
+    pre: IsometryMatrix3<f64>,
+    axis: Unit<Vector3<f64>>,
+    prismatic: bool,
+}
+
+/// A serial chain with its movable joints, ready for FK and Jacobians.
+#[derive(Debug, Clone)]
+pub struct Chain {
+    /// Chain name from configuration.
+    pub name: String,
+    /// Base link name.
+    pub base: String,
+    /// Tip link name.
+    pub tip: String,
+    /// Task-space coordinates.
+    pub task: TaskSpace,
+    /// Names of the movable joints, base to tip.
+    pub joint_names: Vec<String>,
+    /// Limits of the movable joints, base to tip.
+    pub limits: Vec<JointLimits>,
+    segments: Vec<Segment>,
+    tail: IsometryMatrix3<f64>,
+}
+
+/// Scratch state of one chain, owned by the caller and reused every tick.
+#[derive(Debug, Clone)]
+pub struct ChainWorkspace {
+    /// Pose of the tool point in the base frame after the last FK call.
+    pub tip: IsometryMatrix3<f64>,
+    /// World (base-frame) joint origins `p_i` (m).
+    origins: Vec<Vector3<f64>>,
+    /// World (base-frame) unit joint axes `z_i`.
+    axes: Vec<Vector3<f64>>,
+    /// Geometric Jacobian `[v; ω]` (6 × n) after [`Chain::jacobian`].
+    pub jacobian: Matrix6xX<f64>,
+}
+
+impl Chain {
+    /// Builds the chain `spec` of `model`; movable joints named in `held` are frozen at the given value (rad or m).
+    pub fn new(
+        model: &RobotModel,
+        spec: &ChainSpec,
+        held: &HashMap<String, f64>,
+    ) -> Result<Self, KinematicsError> {
+        let base = model.link(&spec.base)?;
+        let tip = model.link(&spec.tip)?;
+        for name in held.keys() {
+            model.joint_id(name)?;
+        }
+        let path = model.path(base, tip).ok_or_else(|| KinematicsError::NotAChain {
+            chain: spec.name.clone(),
+            base: spec.base.clone(),
+            tip: spec.tip.clone(),
+        })?;
+        let mut segments = Vec::new();
+        let mut joint_names = Vec::new();
+        let mut limits = Vec::new();
+        let mut acc = IsometryMatrix3::identity();
+        for &j in &path {
+            let joint = &model.joints[j];
+            match joint.kind {
+                JointKind::Unsupported => {
+                    return Err(KinematicsError::UnsupportedJoint {
+                        chain: spec.name.clone(),
+                        joint: joint.name.clone(),
+                        kind: "floating/planar/spherical".into(),
+                    })
+                }
+                JointKind::Fixed => acc *= joint.origin,
+                _ => {
+                    if let Some(&v) = held.get(&joint.name) {
+                        if !v.is_finite() {
+                            return Err(KinematicsError::InvalidSetting {
+                                field: format!("held.{}", joint.name),
+                                message: format!("{v} is not finite"),
+                            });
+                        }
+                        acc = acc * joint.origin * joint.motion(v);
+                    } else {
+                        segments.push(Segment {
+                            pre: acc * joint.origin,
+                            axis: joint.axis,
+                            prismatic: joint.kind == JointKind::Prismatic,
+                        });
+                        joint_names.push(joint.name.clone());
+                        limits.push(joint.limits);
+                        acc = IsometryMatrix3::identity();
+                    }
+                }
+            }
+        }
+        if segments.is_empty() {
+            return Err(KinematicsError::EmptyChain {
+                chain: spec.name.clone(),
+                base: spec.base.clone(),
+                tip: spec.tip.clone(),
+            });
+        }
+        Ok(Self {
+            name: spec.name.clone(),
+            base: spec.base.clone(),
+            tip: spec.tip.clone(),
+            task: spec.task,
+            joint_names,
+            limits,
+            segments,
+            tail: acc * spec.tool.isometry(),
+        })
+    }
+
+    /// Number of movable joints `n`.
+    pub fn dof(&self) -> usize {
+        self.segments.len()
+    }
+
+    /// A workspace sized for this chain (allocates; call once at setup).
+    pub fn workspace(&self) -> ChainWorkspace {
+        let n = self.dof();
+        ChainWorkspace {
+            tip: IsometryMatrix3::identity(),
+            origins: vec![Vector3::zeros(); n],
+            axes: vec![Vector3::zeros(); n],
+            jacobian: Matrix6xX::zeros(n),
+        }
+    }
+
+    /// Forward kinematics: pose of the tool point in the base frame for `q` (rad or m).
+    ///
+    /// Also records the world joint origins and axes for a following [`Chain::jacobian`].
+    /// Panics if `q.len() != self.dof()` (a programming error, checked at setup elsewhere).
+    #[inline]
+    pub fn forward<'w>(&self, q: &[f64], ws: &'w mut ChainWorkspace) -> &'w IsometryMatrix3<f64> {
+        assert_eq!(q.len(), self.dof(), "chain `{}`: wrong number of joint values", self.name);
+        let mut t = IsometryMatrix3::identity();
+        for (i, (seg, &qi)) in self.segments.iter().zip(q).enumerate() {
+            t *= seg.pre;
+            let z = t.rotation * seg.axis.into_inner();
+            ws.origins[i] = t.translation.vector;
+            ws.axes[i] = z;
+            if seg.prismatic {
+                t.translation.vector += z * qi;
+            } else {
+                t.rotation *= Rotation3::from_axis_angle(&seg.axis, qi);
+            }
+        }
+        ws.tip = t * self.tail;
+        &ws.tip
+    }
+
+    /// Tool-point position in the base frame (m) for `q`; see [`Chain::forward`].
+    #[inline]
+    pub fn position(&self, q: &[f64], ws: &mut ChainWorkspace) -> Vector3<f64> {
+        self.forward(q, ws).translation.vector
+    }
+
+    /// Forward kinematics followed by the 6 × n geometric Jacobian into `ws.jacobian`.
+    #[inline]
+    pub fn jacobian(&self, q: &[f64], ws: &mut ChainWorkspace) {
+        self.forward(q, ws);
+        let p = ws.tip.translation.vector;
+        for (i, seg) in self.segments.iter().enumerate() {
+            let z = ws.axes[i];
+            let (v, w) = if seg.prismatic {
+                (z, Vector3::zeros())
+            } else {
+                (z.cross(&(p - ws.origins[i])), z)
+            };
+            let mut col = ws.jacobian.column_mut(i);
+            col.fixed_rows_mut::<3>(0).copy_from(&v);
+            col.fixed_rows_mut::<3>(3).copy_from(&w);
+        }
+    }
+
+    /// Copies the task-space point (2 or 3 coordinates) of the last FK into `out`.
+    #[inline]
+    pub fn task_point(&self, ws: &ChainWorkspace, out: &mut [f64]) {
+        let p = ws.tip.translation.vector;
+        out[..self.task.dim()].copy_from_slice(&p.as_slice()[..self.task.dim()]);
+    }
+
+    /// The 3 × n position Jacobian (top rows of the geometric Jacobian) after [`Chain::jacobian`].
+    pub fn position_jacobian(ws: &ChainWorkspace) -> nalgebra::MatrixView<'_, f64, nalgebra::U3, nalgebra::Dyn, nalgebra::U1, nalgebra::U6> {
+        ws.jacobian.fixed_rows::<3>(0)
+    }
+
+    /// Allocating convenience: the 3 × n position Jacobian at `q` (setup and tests only).
+    pub fn position_jacobian_at(&self, q: &[f64]) -> Matrix3xX<f64> {
+        let mut ws = self.workspace();
+        self.jacobian(q, &mut ws);
+        ws.jacobian.fixed_rows::<3>(0).into_owned()
+    }
+}

@@ -1,0 +1,19 @@
+//! # crossym — cross-space symmetry compositions for robot policies
+//!
+//! Implements *Symmetries Here and There, Combined Everywhere: Cross-space Symmetry
+//! Compositions in Robotics* (Hadjiloizou, Pérez-Dattari, Jaquier): symmetries of a
+//! robot's configuration space `Q` and task space `X` are transferred across the
+//! forward kinematics `f: Q → X` (descended by equivariance, eq. 8; lifted by the
+//! horizontal lift, eqs. 13–18), composed by direct or semi-direct products
+//! (eqs. 19–23), and used to train symmetry-conditioned joint-space policies.
+//!
+//! Modules:
+//! - [`kinematics`]: URDF model, FK, Jacobian, metric pseudo-inverse.
+//! - [`config`]: TOML configuration, validated once at startup.
+//! - [`symmetry`]: groups, actions, transfer (descend/lift) and composition.
+
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod kinematics;
+pub mod symmetry;

@@ -1,0 +1,298 @@
+//! Lie groups acting affinely on task space: SO(2) in any plane, SO(3), uniform
+//! scaling S, translations (paper Sec. III-B, Examples 2–4).
+//!
+//! Each group is given by a basis `ξ_1 … ξ_k` of its Lie algebra, represented on one
+//! task block `R^d` (d = 2 or 3) by an affine generator `x ↦ A_k (x − c) + b_k`
+//! around a center `c` (the origin by default, as in the paper). On a product task
+//! space `X = X_1 × … × X_B` (one block per arm) the same action applies to every block.
+//!
+//! - infinitesimal generator (eq. 2): `X_ξ(x) = Σ_k ξ_k (A_k (x − c) + b_k)`;
+//!   for SO(2) this is `X_Ω(x) = Ω x` of Sec. III-B and Example 2;
+//! - action of `g = exp(ξ)`: `Φ(g, x) = c + E (x − c) + e` with `[[E, e], [0, 1]] =
+//!   exp([[Σ ξ_k A_k, Σ ξ_k b_k], [0, 0]])` (closed form for each kind below);
+//! - differential (Sec. II-B): `dΦ_g|_x v = E v`.
+//!
+//! Elements are parametrised by exponential coordinates `ξ ∈ R^k`: the angle `θ` for
+//! SO(2), the rotation vector for SO(3), `ln λ` for scaling (`λ = e^s`), the offset for
+//! translations.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::field::VectorField;
+
+/// Which Lie group, with its parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LieGroupSpec {
+    /// SO(2): rotations in a plane. On 2-D blocks the plane is the block itself; on 3-D
+    /// blocks give the plane's unit normal `axis` (right-hand rule sets the sign of θ).
+    So2 {
+        /// Rotation axis for 3-D blocks; ignored (must be absent or `[0,0,1]`) for 2-D blocks.
+        #[serde(default)]
+        axis: Option<[f64; 3]>,
+    },
+    /// SO(3): all rotations of a 3-D block about the center.
+    So3,
+    /// S: uniform scaling about the center, element `λ = e^s > 0`.
+    Scaling,
+    /// Translations along the given directions (block coordinates); all axes when empty.
+    Translation {
+        /// Directions spanning the translations.
+        #[serde(default)]
+        directions: Vec<Vec<f64>>,
+    },
+}
+
+/// An affine Lie group action on `R^{B·d}` acting identically on `B` blocks of size `d`.
+#[derive(Debug, Clone)]
+pub struct AffineAction {
+    /// Name from configuration (e.g. `R`, `S`).
+    pub name: String,
+    /// The group.
+    pub spec: LieGroupSpec,
+    /// Block size `d` (2 or 3).
+    pub block_dim: usize,
+    /// Number of blocks `B`.
+    pub blocks: usize,
+    /// Center `c` (block coordinates).
+    pub center: DVector<f64>,
+    /// Linear parts `A_k` (d × d), one per algebra basis element.
+    pub linear: Vec<DMatrix<f64>>,
+    /// Translation parts `b_k` (d), one per algebra basis element.
+    pub offset: Vec<DVector<f64>>,
+}
+
+fn skew(u: &Vector3<f64>) -> DMatrix<f64> {
+    DMatrix::from_column_slice(3, 3, Matrix3::new(0.0, -u.z, u.y, u.z, 0.0, -u.x, -u.y, u.x, 0.0).as_slice())
+}
+
+impl AffineAction {
+    /// Builds the action of `spec` on `blocks` blocks of dimension `block_dim` about `center`.
+    pub fn new(
+        name: &str,
+        spec: LieGroupSpec,
+        block_dim: usize,
+        blocks: usize,
+        center: Option<&[f64]>,
+    ) -> Result<Self, String> {
+        if !(block_dim == 2 || block_dim == 3) {
+            return Err(format!("`{name}`: task blocks must be 2-D or 3-D, got {block_dim}"));
+        }
+        if blocks == 0 {
+            return Err(format!("`{name}`: no task blocks"));
+        }
+        let center = match center {
+            None => DVector::zeros(block_dim),
+            Some(c) if c.len() == block_dim && c.iter().all(|v| v.is_finite()) => DVector::from_column_slice(c),
+            Some(c) => return Err(format!("`{name}`: center {c:?} must have {block_dim} finite coordinates")),
+        };
+        let d = block_dim;
+        let zero_b = || DVector::zeros(d);
+        let (linear, offset): (Vec<DMatrix<f64>>, Vec<DVector<f64>>) = match &spec {
+            LieGroupSpec::So2 { axis } => {
+                if d == 2 {
+                    if axis.is_some_and(|a| a != [0.0, 0.0, 1.0]) {
+                        return Err(format!("`{name}`: SO(2) on planar blocks rotates about z only"));
+                    }
+                    (vec![DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 1.0, 0.0])], vec![zero_b()])
+                } else {
+                    let a = Vector3::from(axis.ok_or_else(|| format!("`{name}`: SO(2) on 3-D blocks needs `axis`"))?);
+                    if !(a.norm() > 1e-12) || a.iter().any(|v| !v.is_finite()) {
+                        return Err(format!("`{name}`: SO(2) axis {a:?} is not a non-zero vector"));
+                    }
+                    (vec![skew(&a.normalize())], vec![zero_b()])
+                }
+            }
+            LieGroupSpec::So3 => {
+                if d != 3 {
+                    return Err(format!("`{name}`: SO(3) needs 3-D task blocks"));
+                }
+                (
+                    vec![skew(&Vector3::x()), skew(&Vector3::y()), skew(&Vector3::z())],
+                    vec![zero_b(), zero_b(), zero_b()],
+                )
+            }
+            LieGroupSpec::Scaling => (vec![DMatrix::identity(d, d)], vec![zero_b()]),
+            LieGroupSpec::Translation { directions } => {
+                let dirs: Vec<Vec<f64>> = if directions.is_empty() {
+                    (0..d).map(|i| (0..d).map(|j| f64::from(u8::from(i == j))).collect()).collect()
+                } else {
+                    directions.clone()
+                };
+                let mut offs = Vec::new();
+                for v in dirs {
+                    if v.len() != d || v.iter().any(|x| !x.is_finite()) {
+                        return Err(format!("`{name}`: translation direction {v:?} must have {d} finite coordinates"));
+                    }
+                    offs.push(DVector::from_vec(v));
+                }
+                (offs.iter().map(|_| DMatrix::zeros(d, d)).collect(), offs)
+            }
+        };
+        Ok(Self { name: name.into(), spec, block_dim, blocks, center, linear, offset })
+    }
+
+    /// Dimension `k` of the Lie algebra (number of exponential coordinates).
+    pub fn algebra_dim(&self) -> usize {
+        self.linear.len()
+    }
+
+    /// Dimension `B·d` of the space acted on.
+    pub fn dim(&self) -> usize {
+        self.block_dim * self.blocks
+    }
+
+    /// The identity element's exponential coordinates (all zero).
+    pub fn identity(&self) -> Vec<f64> {
+        vec![0.0; self.algebra_dim()]
+    }
+
+    /// `(E, e)` of `exp(ξ)`: the linear part and translation of the block action.
+    pub fn block_transform(&self, xi: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
+        let d = self.block_dim;
+        let mut aug = DMatrix::zeros(d + 1, d + 1);
+        for (k, &t) in xi.iter().enumerate() {
+            for r in 0..d {
+                for c in 0..d {
+                    aug[(r, c)] += t * self.linear[k][(r, c)];
+                }
+                aug[(r, d)] += t * self.offset[k][r];
+            }
+        }
+        let ex = aug.exp();
+        (ex.view((0, 0), (d, d)).into_owned(), ex.view((0, d), (d, 1)).column(0).into_owned())
+    }
+
+    /// `out = Φ(exp(ξ), x)` on every block.
+    pub fn act(&self, xi: &[f64], x: &[f64], out: &mut [f64]) {
+        let (e, t) = self.block_transform(xi);
+        self.apply_transform(&e, &t, x, out);
+    }
+
+    /// Applies a precomputed `(E, e)` from [`AffineAction::block_transform`]: `c + E(x − c) + e`.
+    pub fn apply_transform(&self, e: &DMatrix<f64>, t: &DVector<f64>, x: &[f64], out: &mut [f64]) {
+        let d = self.block_dim;
+        for b in 0..self.blocks {
+            for r in 0..d {
+                let mut s = self.center[r] + t[r];
+                for c in 0..d {
+                    s += e[(r, c)] * (x[b * d + c] - self.center[c]);
+                }
+                out[b * d + r] = s;
+            }
+        }
+    }
+
+    /// Differential `out = dΦ_g|_x v = E v` on every block.
+    pub fn differential(&self, xi: &[f64], v: &[f64], out: &mut [f64]) {
+        let (e, _) = self.block_transform(xi);
+        let d = self.block_dim;
+        for b in 0..self.blocks {
+            for r in 0..d {
+                out[b * d + r] = (0..d).map(|c| e[(r, c)] * v[b * d + c]).sum();
+            }
+        }
+    }
+
+    /// The infinitesimal generator `X_ξ` (eq. 2) of the algebra element `ξ` as a vector field.
+    pub fn generator(&self, xi: &[f64]) -> Generator<'_> {
+        Generator { action: self, xi: xi.to_vec() }
+    }
+
+    /// Generator of the `k`-th basis element.
+    pub fn basis_generator(&self, k: usize) -> Generator<'_> {
+        let mut xi = vec![0.0; self.algebra_dim()];
+        xi[k] = 1.0;
+        self.generator(&xi)
+    }
+}
+
+/// Infinitesimal generator `X_ξ(x) = Σ_k ξ_k (A_k (x − c) + b_k)` of an [`AffineAction`].
+#[derive(Debug, Clone)]
+pub struct Generator<'a> {
+    action: &'a AffineAction,
+    /// Algebra coordinates `ξ`.
+    pub xi: Vec<f64>,
+}
+
+impl VectorField for Generator<'_> {
+    fn dim(&self) -> usize {
+        self.action.dim()
+    }
+    fn eval(&self, x: &[f64], out: &mut [f64]) -> bool {
+        let a = self.action;
+        let d = a.block_dim;
+        out.fill(0.0);
+        for (k, &t) in self.xi.iter().enumerate() {
+            if t == 0.0 {
+                continue;
+            }
+            for b in 0..a.blocks {
+                for r in 0..d {
+                    let mut s = a.offset[k][r];
+                    for c in 0..d {
+                        s += a.linear[k][(r, c)] * (x[b * d + c] - a.center[c]);
+                    }
+                    out[b * d + r] += t * s;
+                }
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::symmetry::field::{lie_bracket, DEFAULT_FD_STEP};
+
+    #[test]
+    fn so2_rotates_both_blocks_and_differential_matches() {
+        let r = AffineAction::new("R", LieGroupSpec::So2 { axis: None }, 2, 2, None).unwrap();
+        let x = [1.0, 0.0, 0.0, 2.0];
+        let mut out = [0.0; 4];
+        r.act(&[std::f64::consts::FRAC_PI_2], &x, &mut out);
+        let want = [0.0, 1.0, -2.0, 0.0];
+        for (o, w) in out.iter().zip(want) {
+            assert!((o - w).abs() < 1e-12, "{out:?}");
+        }
+        // Differential of a linear action equals the action on vectors.
+        let mut dv = [0.0; 4];
+        r.differential(&[std::f64::consts::FRAC_PI_2], &x, &mut dv);
+        assert_eq!(dv.map(|v| (v * 1e9).round()), out.map(|v| (v * 1e9).round()));
+    }
+
+    #[test]
+    fn scaling_uses_log_coordinates_about_center() {
+        let s = AffineAction::new("S", LieGroupSpec::Scaling, 2, 1, Some(&[1.0, 1.0])).unwrap();
+        let mut out = [0.0; 2];
+        s.act(&[0.5f64.ln()], &[3.0, 1.0], &mut out);
+        assert!((out[0] - 2.0).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12, "{out:?}");
+    }
+
+    #[test]
+    fn so3_brackets_close_with_structure_constants() {
+        let r = AffineAction::new("R3", LieGroupSpec::So3, 3, 1, None).unwrap();
+        let (x, y, z) = (r.basis_generator(0), r.basis_generator(1), r.basis_generator(2));
+        let p = [0.3, -0.8, 1.1];
+        let mut b = [0.0; 3];
+        let mut zv = [0.0; 3];
+        assert!(lie_bracket(&x, &y, &p, DEFAULT_FD_STEP, &mut b));
+        z.eval(&p, &mut zv);
+        // With [X, Y] = dX·Y − dY·X and linear fields X_A = A x: [X_A, X_B] = X_[A,B],
+        // and [ê_x, ê_y] = ê_z for the skew matrices of so(3).
+        for i in 0..3 {
+            assert!((b[i] - zv[i]).abs() < 1e-8, "{b:?} vs {zv:?}");
+        }
+    }
+
+    #[test]
+    fn so2_about_an_axis_in_3d() {
+        let r = AffineAction::new("R", LieGroupSpec::So2 { axis: Some([0.0, 0.0, 2.0]) }, 3, 1, None).unwrap();
+        let mut out = [0.0; 3];
+        r.act(&[std::f64::consts::PI], &[1.0, 2.0, 3.0], &mut out);
+        assert!((out[0] + 1.0).abs() < 1e-12 && (out[1] + 2.0).abs() < 1e-12 && (out[2] - 3.0).abs() < 1e-12);
+        assert!(AffineAction::new("R", LieGroupSpec::So2 { axis: None }, 3, 1, None).is_err());
+    }
+}

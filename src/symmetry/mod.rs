@@ -1,0 +1,10 @@
+//! Symmetries of robot configuration and task spaces, their transfer across the
+//! forward kinematics, and their composition (paper Secs. III–V).
+//!
+//! - [`field`]: vector fields and the Lie bracket (Sec. II-B).
+//! - [`finite`]: signed-permutation representations of finite groups (eqs. 4–5).
+//! - [`lie`]: SO(2), SO(3), scaling and translations acting on task space (Sec. III-B).
+
+pub mod field;
+pub mod finite;
+pub mod lie;
