@@ -8,3 +8,4 @@
 pub mod field;
 pub mod finite;
 pub mod lie;
+pub mod transfer;

@@ -1,0 +1,314 @@
+//! Lifting task-space symmetries to configuration space (paper Sec. IV-B, eqs. 11–18).
+//!
+//! For a redundant robot the forward kinematics `f: Q → X` is a smooth submersion
+//! away from singularities (A1–A3), so every task velocity has a unique horizontal lift
+//! `q̇_H = J⁺(q) ẋ`, `J⁺ = M⁻¹Jᵀ(J M⁻¹Jᵀ)⁻¹` (eqs. 12–13). Lifting a task-space
+//! generator `X_X^ξ` gives the horizontal field (eq. 17)
+//!
+//! `X_Q^ξ(q) = J⁺(q) X_X^ξ(f(q))`,
+//!
+//! `f`-related to `X_X^ξ` (eq. 15: `J X_Q^ξ = X_X^ξ ∘ f`). Its flow (eq. 18) defines the
+//! lifted action `Φ_Q(exp(tξ), q) = γ^Q_ξ(t, q)`, and by naturality of flows
+//! `f(Φ_Q(g, q)) = Φ_X(g, f(q))` (eq. 19 of the flows) — which [`LiftedAction`] checks.
+//!
+//! Conditions reported numerically rather than assumed:
+//! - the Lie-bracket condition (eq. 16): `[X_Q^ξ, X_Q^ζ] = X_Q^{[ξ,ζ]}`; since both sides
+//!   are `f`-related to `[X_X^ξ, X_X^ζ]`, the difference is vertical, and its size
+//!   (the vertical component of `[X_Q^ξ, X_Q^ζ]`) is what [`bracket_condition`] reports;
+//! - periodicity: for a periodic task action (SO(2), period 2π) the lifted flow returns to
+//!   `q` only if it generates no vertical drift; [`periodicity_drift`] reports the drift;
+//! - singularities along the flow: the lifted field is undefined where the pseudo-inverse is
+//!   near-singular, and the flow stops there with [`LiftError::Singular`].
+
+use std::cell::RefCell;
+
+use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
+use crate::symmetry::field::{lie_bracket, VectorField};
+use crate::symmetry::lie::AffineAction;
+use crate::symmetry::transfer::flow::{integrate, FlowSettings, FlowStatus, FlowWorkspace, VariationalField};
+
+/// Errors of the lifted action: the flow could not be carried to the requested element.
+#[derive(Debug, Clone, thiserror::Error)]
+#[non_exhaustive]
+pub enum LiftError {
+    /// The flow reached a (near-)singular configuration, where `J⁺` is undefined (A3 fails).
+    #[error("lifting `{symmetry}`: kinematic singularity reached at flow time {t:.6} of {total:.6}")]
+    Singular {
+        /// Symmetry name.
+        symmetry: String,
+        /// Flow time reached.
+        t: f64,
+        /// Requested flow time.
+        total: f64,
+    },
+    /// The integrator gave up or produced non-finite values.
+    #[error("lifting `{symmetry}`: integration failed ({status:?})")]
+    Integration {
+        /// Symmetry name.
+        symmetry: String,
+        /// Integrator status.
+        status: FlowStatus,
+    },
+    /// The starting configuration is already singular or non-finite.
+    #[error("lifting `{symmetry}`: start configuration is singular or not finite")]
+    BadStart {
+        /// Symmetry name.
+        symmetry: String,
+    },
+}
+
+/// The horizontally lifted field `X_Q(q) = J⁺(q) X_X(f(q))` (eq. 17) of a task field.
+///
+/// Undefined (returns `false`) where the pseudo-inverse is not [`PinvStatus::Regular`].
+/// Uses interior scratch (a `RefCell`, no lock): one instance per thread.
+pub struct LiftedField<'a, F: VectorField> {
+    kin: &'a Kinematics,
+    task: F,
+    scratch: RefCell<(KinematicsWorkspace, Vec<f64>)>,
+}
+
+impl<'a, F: VectorField> LiftedField<'a, F> {
+    /// Lifts `task` (a field on `X`, `task.dim() == kin.task_dim()`) through `kin`.
+    pub fn new(kin: &'a Kinematics, task: F) -> Self {
+        assert_eq!(task.dim(), kin.task_dim(), "task field dimension differs from dim X");
+        let ws = kin.workspace();
+        Self { kin, task, scratch: RefCell::new((ws, vec![0.0; kin.task_dim()])) }
+    }
+
+    /// The task-space field being lifted.
+    pub fn task_field(&self) -> &F {
+        &self.task
+    }
+}
+
+impl<F: VectorField> VectorField for LiftedField<'_, F> {
+    fn dim(&self) -> usize {
+        self.kin.dof()
+    }
+    fn eval(&self, q: &[f64], out: &mut [f64]) -> bool {
+        if q.iter().any(|v| !v.is_finite()) {
+            return false;
+        }
+        let mut s = self.scratch.borrow_mut();
+        let (ws, xdot) = &mut *s;
+        self.kin.jacobian(q, ws);
+        if !self.task.eval(ws.x.as_slice(), xdot) {
+            return false;
+        }
+        let report = self.kin.factor(ws);
+        if report.status != PinvStatus::Regular {
+            return false;
+        }
+        self.kin.solve(ws, xdot, out);
+        true
+    }
+}
+
+/// Scratch for [`LiftedAction`] (allocates once).
+#[derive(Debug, Clone)]
+pub struct LiftWorkspace {
+    flow: FlowWorkspace,
+    var: FlowWorkspace,
+    y0: Vec<f64>,
+    y1: Vec<f64>,
+}
+
+/// Lifted action `Φ_Q(exp(ξ), q)` of an affine task-space Lie group action (eq. 18).
+pub struct LiftedAction<'a> {
+    kin: &'a Kinematics,
+    action: &'a AffineAction,
+    settings: FlowSettings,
+    fd_step: f64,
+}
+
+impl<'a> LiftedAction<'a> {
+    /// Lifts `action` (acting on `X = R^{kin.task_dim()}`) through `kin`.
+    pub fn new(kin: &'a Kinematics, action: &'a AffineAction, settings: FlowSettings) -> Result<Self, String> {
+        settings.validate()?;
+        if action.dim() != kin.task_dim() {
+            return Err(format!(
+                "symmetry `{}` acts on R^{} but the robot's task space is R^{}",
+                action.name,
+                action.dim(),
+                kin.task_dim()
+            ));
+        }
+        Ok(Self { kin, action, settings, fd_step: 1e-6 })
+    }
+
+    /// The task-space action being lifted.
+    pub fn task_action(&self) -> &AffineAction {
+        self.action
+    }
+
+    /// The robot.
+    pub fn kinematics(&self) -> &Kinematics {
+        self.kin
+    }
+
+    /// Scratch sized for this robot.
+    pub fn workspace(&self) -> LiftWorkspace {
+        let n = self.kin.dof();
+        LiftWorkspace {
+            flow: FlowWorkspace::new(n),
+            var: FlowWorkspace::new(2 * n),
+            y0: vec![0.0; 2 * n],
+            y1: vec![0.0; 2 * n],
+        }
+    }
+
+    fn outcome(&self, status: FlowStatus) -> Result<FlowStatus, LiftError> {
+        match status {
+            FlowStatus::Done { .. } => Ok(status),
+            FlowStatus::FieldUndefined { t } if t == 0.0 => {
+                Err(LiftError::BadStart { symmetry: self.action.name.clone() })
+            }
+            FlowStatus::FieldUndefined { t } => {
+                Err(LiftError::Singular { symmetry: self.action.name.clone(), t, total: 1.0 })
+            }
+            other => Err(LiftError::Integration { symmetry: self.action.name.clone(), status: other }),
+        }
+    }
+
+    /// `q_out = Φ_Q(exp(ξ), q)`: the flow of `X_Q^ξ` for unit time.
+    pub fn act(&self, xi: &[f64], q: &[f64], q_out: &mut [f64], ws: &mut LiftWorkspace) -> Result<FlowStatus, LiftError> {
+        let field = LiftedField::new(self.kin, self.action.generator(xi));
+        let st = integrate(&field, 1.0, q, q_out, &self.settings, &mut ws.flow);
+        self.outcome(st)
+    }
+
+    /// `q_out = Φ_Q(exp(ξ), q)` and `qdot_out = dΦ_Q|_q q̇` (variational equation).
+    pub fn act_with_differential(
+        &self,
+        xi: &[f64],
+        q: &[f64],
+        qdot: &[f64],
+        q_out: &mut [f64],
+        qdot_out: &mut [f64],
+        ws: &mut LiftWorkspace,
+    ) -> Result<FlowStatus, LiftError> {
+        let n = self.kin.dof();
+        let field = LiftedField::new(self.kin, self.action.generator(xi));
+        let var = VariationalField::new(&field, self.fd_step);
+        ws.y0[..n].copy_from_slice(q);
+        ws.y0[n..].copy_from_slice(qdot);
+        let st = integrate(&var, 1.0, &ws.y0, &mut ws.y1, &self.settings, &mut ws.var);
+        let st = self.outcome(st)?;
+        q_out.copy_from_slice(&ws.y1[..n]);
+        qdot_out.copy_from_slice(&ws.y1[n..]);
+        Ok(st)
+    }
+
+    /// Equivariance residual `‖f(Φ_Q(g, q)) − Φ_X(g, f(q))‖` (eq. 19) for `g = exp(ξ)`.
+    pub fn equivariance_residual(&self, xi: &[f64], q: &[f64], ws: &mut LiftWorkspace) -> Result<f64, LiftError> {
+        let n = self.kin.dof();
+        let m = self.kin.task_dim();
+        let mut q_out = vec![0.0; n];
+        self.act(xi, q, &mut q_out, ws)?;
+        let mut kws = self.kin.workspace();
+        let x0 = self.kin.forward(q, &mut kws).clone();
+        let x1 = self.kin.forward(&q_out, &mut kws).clone();
+        let mut gx = vec![0.0; m];
+        self.action.act(xi, x0.as_slice(), &mut gx);
+        Ok(x1.iter().zip(&gx).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt())
+    }
+}
+
+/// Outcome of the Lie-bracket condition (eq. 16) at sampled configurations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BracketReport {
+    /// Max norm of the vertical component `N [X_Q^ξ, X_Q^ζ]` (`N = I − J⁺J`), in rad per unit time².
+    pub vertical: f64,
+    /// The same relative to `max ‖[X_Q^ξ, X_Q^ζ]‖` (or absolute if that is 0).
+    pub vertical_relative: f64,
+    /// Max `‖[X_Q^ξ, X_Q^ζ] − X_Q^{[ξ,ζ]}‖` with the task bracket lifted (eq. 16 residual).
+    pub residual: f64,
+    /// Max `‖J [X_Q^ξ, X_Q^ζ] − [X_X^ξ, X_X^ζ]‖` (f-relatedness of brackets; should be ~0).
+    pub horizontal_mismatch: f64,
+    /// Configurations evaluated (singular ones skipped).
+    pub samples: usize,
+}
+
+/// Evaluates eq. 16 for two task fields at the given configurations (analysis; allocates).
+pub fn bracket_condition(
+    kin: &Kinematics,
+    a: &dyn VectorField,
+    b: &dyn VectorField,
+    configs: &[Vec<f64>],
+    h: f64,
+) -> BracketReport {
+    let n = kin.dof();
+    let m = kin.task_dim();
+    let la = LiftedField::new(kin, a);
+    let lb = LiftedField::new(kin, b);
+    let mut ws = kin.workspace();
+    let (mut bq, mut bx, mut lifted, mut jb) = (vec![0.0; n], vec![0.0; m], vec![0.0; n], vec![0.0; m]);
+    let mut out = BracketReport { vertical: 0.0, vertical_relative: 0.0, residual: 0.0, horizontal_mismatch: 0.0, samples: 0 };
+    let mut max_norm: f64 = 0.0;
+    for q in configs {
+        if !lie_bracket(&la, &lb, q, h, &mut bq) {
+            continue;
+        }
+        kin.jacobian(q, &mut ws);
+        let x = ws.x.clone();
+        if !lie_bracket(a, b, x.as_slice(), h, &mut bx) {
+            continue;
+        }
+        if kin.factor(&mut ws).status != PinvStatus::Regular {
+            continue;
+        }
+        kin.solve(&mut ws, &bx, &mut lifted);
+        // J [X_Q^a, X_Q^b] and the horizontal part J⁺ J [..].
+        for (r, o) in jb.iter_mut().enumerate() {
+            *o = (0..n).map(|c| ws.jac[(r, c)] * bq[c]).sum();
+        }
+        let mut horiz = vec![0.0; n];
+        kin.solve(&mut ws, &jb, &mut horiz);
+        let vert = bq.iter().zip(&horiz).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+        let resid = bq.iter().zip(&lifted).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+        let hm = jb.iter().zip(&bx).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+        max_norm = max_norm.max(bq.iter().map(|v| v * v).sum::<f64>().sqrt());
+        out.vertical = out.vertical.max(vert);
+        out.residual = out.residual.max(resid);
+        out.horizontal_mismatch = out.horizontal_mismatch.max(hm);
+        out.samples += 1;
+    }
+    out.vertical_relative = if max_norm > 0.0 { out.vertical / max_norm } else { out.vertical };
+    out
+}
+
+/// Drift `‖Φ_Q(exp(T ξ), q) − q‖` after one task-space period `T` (e.g. 2π for SO(2)),
+/// with revolute/continuous joint differences wrapped to (−π, π].
+pub fn periodicity_drift(
+    lifted: &LiftedAction<'_>,
+    xi_period: &[f64],
+    q: &[f64],
+    ws: &mut LiftWorkspace,
+) -> Result<f64, LiftError> {
+    let mut out = vec![0.0; q.len()];
+    lifted.act(xi_period, q, &mut out, ws)?;
+    let limits = lifted.kinematics().limits();
+    Ok(out
+        .iter()
+        .zip(q)
+        .zip(limits)
+        .map(|((a, b), l)| {
+            let d = a - b;
+            // Joints with a span of at least 2π are angles on a circle: wrap.
+            let d = if l.upper - l.lower >= std::f64::consts::TAU - 1e-9 { wrap_angle(d) } else { d };
+            d * d
+        })
+        .sum::<f64>()
+        .sqrt())
+}
+
+/// Wraps an angle difference to (−π, π].
+pub fn wrap_angle(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    let r = a.rem_euclid(t);
+    if r > std::f64::consts::PI {
+        r - t
+    } else {
+        r
+    }
+}
