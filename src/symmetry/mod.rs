@@ -4,7 +4,9 @@
 //! - [`field`]: vector fields and the Lie bracket (Sec. II-B).
 //! - [`finite`]: signed-permutation representations of finite groups (eqs. 4–5).
 //! - [`lie`]: SO(2), SO(3), scaling and translations acting on task space (Sec. III-B).
+//! - [`compose`]: direct and semi-direct products, the composed action (eqs. 19–23).
 
+pub mod compose;
 pub mod field;
 pub mod finite;
 pub mod lie;
