@@ -49,7 +49,12 @@ fn info(path: &PathBuf, q: Option<Vec<f64>>) -> anyhow::Result<ExitCode> {
         kin.dof()
     );
     println!("robot `{}` from {}", kin.robot, robot.model.origin);
-    println!("  dim Q = {}, dim X = {}, damping λ = {}", kin.dof(), kin.task_dim(), kin.pinv().damping());
+    println!(
+        "  dim Q = {}, dim X = {}, damping λ = {}",
+        kin.dof(),
+        kin.task_dim(),
+        kin.pinv().damping()
+    );
     let mut ws = kin.workspace();
     kin.jacobian(&q, &mut ws);
     let report = kin.factor(&mut ws);
@@ -80,6 +85,6 @@ fn info(path: &PathBuf, q: Option<Vec<f64>>) -> anyhow::Result<ExitCode> {
         report.status,
         crossym::kinematics::condition_number(&ws.jac)
     );
-    let _ = std::io::Write::flush(&mut std::io::stdout()).context("stdout")?;
+    std::io::Write::flush(&mut std::io::stdout()).context("stdout")?;
     Ok(ExitCode::SUCCESS)
 }

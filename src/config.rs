@@ -80,8 +80,16 @@ pub struct LoadedRobot {
 
 impl RobotConfig {
     /// Loads the URDF (resolved against `base_dir`) and builds the kinematics.
-    pub fn load(&self, base_dir: &Path, settings: &KinematicsSettings) -> Result<LoadedRobot, KinematicsError> {
-        let path = if self.urdf.is_absolute() { self.urdf.clone() } else { base_dir.join(&self.urdf) };
+    pub fn load(
+        &self,
+        base_dir: &Path,
+        settings: &KinematicsSettings,
+    ) -> Result<LoadedRobot, KinematicsError> {
+        let path = if self.urdf.is_absolute() {
+            self.urdf.clone()
+        } else {
+            base_dir.join(&self.urdf)
+        };
         let mut model = RobotModel::from_urdf_file(&path)?;
         for (joint, o) in &self.limits {
             if let Some(a) = o.acceleration {
@@ -118,8 +126,10 @@ impl Config {
     /// Reads and parses a config file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, ConfigError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| ConfigError::Io { path: path.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         let mut cfg = Self::from_toml_str(&text, path)?;
         cfg.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Ok(cfg)
@@ -127,8 +137,10 @@ impl Config {
 
     /// Parses TOML text; `path` labels errors.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, ConfigError> {
-        let mut cfg: Self = toml::from_str(text)
-            .map_err(|e| ConfigError::Parse { path: path.to_path_buf(), message: e.to_string() })?;
+        let mut cfg: Self = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         cfg.path = path.to_path_buf();
         Ok(cfg)
     }
@@ -137,6 +149,9 @@ impl Config {
     pub fn load_robot(&self) -> Result<LoadedRobot, ConfigError> {
         self.robot
             .load(&self.base_dir, &self.kinematics)
-            .map_err(|source| ConfigError::Robot { path: self.path.clone(), source })
+            .map_err(|source| ConfigError::Robot {
+                path: self.path.clone(),
+                source,
+            })
     }
 }

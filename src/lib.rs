@@ -13,6 +13,8 @@
 //! - [`symmetry`]: groups, actions, transfer (descend/lift) and composition.
 
 #![warn(missing_docs)]
+// Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
+#![allow(clippy::needless_range_loop)]
 
 pub mod config;
 pub mod kinematics;

@@ -137,11 +137,13 @@ impl Chain {
         for name in held.keys() {
             model.joint_id(name)?;
         }
-        let path = model.path(base, tip).ok_or_else(|| KinematicsError::NotAChain {
-            chain: spec.name.clone(),
-            base: spec.base.clone(),
-            tip: spec.tip.clone(),
-        })?;
+        let path = model
+            .path(base, tip)
+            .ok_or_else(|| KinematicsError::NotAChain {
+                chain: spec.name.clone(),
+                base: spec.base.clone(),
+                tip: spec.tip.clone(),
+            })?;
         let mut segments = Vec::new();
         let mut joint_names = Vec::new();
         let mut limits = Vec::new();
@@ -220,7 +222,12 @@ impl Chain {
     /// Panics if `q.len() != self.dof()` (a programming error, checked at setup elsewhere).
     #[inline]
     pub fn forward<'w>(&self, q: &[f64], ws: &'w mut ChainWorkspace) -> &'w IsometryMatrix3<f64> {
-        assert_eq!(q.len(), self.dof(), "chain `{}`: wrong number of joint values", self.name);
+        assert_eq!(
+            q.len(),
+            self.dof(),
+            "chain `{}`: wrong number of joint values",
+            self.name
+        );
         let mut t = IsometryMatrix3::identity();
         for (i, (seg, &qi)) in self.segments.iter().zip(q).enumerate() {
             t *= seg.pre;
@@ -269,7 +276,10 @@ impl Chain {
     }
 
     /// The 3 × n position Jacobian (top rows of the geometric Jacobian) after [`Chain::jacobian`].
-    pub fn position_jacobian(ws: &ChainWorkspace) -> nalgebra::MatrixView<'_, f64, nalgebra::U3, nalgebra::Dyn, nalgebra::U1, nalgebra::U6> {
+    pub fn position_jacobian(
+        ws: &ChainWorkspace,
+    ) -> nalgebra::MatrixView<'_, f64, nalgebra::U3, nalgebra::Dyn, nalgebra::U1, nalgebra::U6>
+    {
         ws.jacobian.fixed_rows::<3>(0)
     }
 

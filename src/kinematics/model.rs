@@ -198,9 +198,16 @@ impl RobotModel {
             };
             let a = Vector3::from(j.axis.xyz.0);
             if kind.is_movable() && !(a.norm() > 1e-9 && a.iter().all(|v| v.is_finite())) {
-                return Err(bad(format!("axis {:?} is not a non-zero finite vector", a.as_slice())));
+                return Err(bad(format!(
+                    "axis {:?} is not a non-zero finite vector",
+                    a.as_slice()
+                )));
             }
-            let axis = if a.norm() > 1e-9 { Unit::new_normalize(a) } else { Vector3::x_axis() };
+            let axis = if a.norm() > 1e-9 {
+                Unit::new_normalize(a)
+            } else {
+                Vector3::x_axis()
+            };
             let pose = urdf_pose(&j.origin);
             if !pose.translation.vector.iter().all(|v| v.is_finite())
                 || !pose.rotation.matrix().iter().all(|v| v.is_finite())
@@ -288,22 +295,31 @@ impl RobotModel {
 
     /// Index of the link called `name`.
     pub fn link(&self, name: &str) -> Result<usize, KinematicsError> {
-        self.link_index.get(name).copied().ok_or_else(|| KinematicsError::UnknownLink {
-            robot: self.name.clone(),
-            link: name.into(),
-            known: truncated_list(self.links.iter()),
-        })
+        self.link_index
+            .get(name)
+            .copied()
+            .ok_or_else(|| KinematicsError::UnknownLink {
+                robot: self.name.clone(),
+                link: name.into(),
+                known: truncated_list(self.links.iter()),
+            })
     }
 
     /// Index of the joint called `name`.
     pub fn joint_id(&self, name: &str) -> Result<usize, KinematicsError> {
-        self.joint_index.get(name).copied().ok_or_else(|| KinematicsError::UnknownJoint {
-            robot: self.name.clone(),
-            joint: name.into(),
-            known: truncated_list(
-                self.joints.iter().filter(|j| j.kind.is_movable()).map(|j| &j.name),
-            ),
-        })
+        self.joint_index
+            .get(name)
+            .copied()
+            .ok_or_else(|| KinematicsError::UnknownJoint {
+                robot: self.name.clone(),
+                joint: name.into(),
+                known: truncated_list(
+                    self.joints
+                        .iter()
+                        .filter(|j| j.kind.is_movable())
+                        .map(|j| &j.name),
+                ),
+            })
     }
 
     /// The joint called `name`.
@@ -385,7 +401,9 @@ fn acceleration_attributes(xml: &str, origin: &str) -> Result<Vec<(String, f64)>
     })?;
     let mut out = Vec::new();
     for joint in doc.descendants().filter(|n| n.has_tag_name("joint")) {
-        let Some(name) = joint.attribute("name") else { continue };
+        let Some(name) = joint.attribute("name") else {
+            continue;
+        };
         for limit in joint.children().filter(|n| n.has_tag_name("limit")) {
             if let Some(text) = limit.attribute("acceleration") {
                 let a: f64 = text.trim().parse().map_err(|_| KinematicsError::BadJoint {

@@ -29,7 +29,10 @@ pub struct Metric {
 impl Metric {
     /// The identity metric on `R^n` (the paper's choice, Sec. VI).
     pub fn identity(n: usize) -> Self {
-        Self { inv: DMatrix::identity(n, n), identity: true }
+        Self {
+            inv: DMatrix::identity(n, n),
+            identity: true,
+        }
     }
 
     /// A diagonal metric with positive entries `d` (one per joint).
@@ -42,7 +45,10 @@ impl Metric {
         }
         let identity = d.iter().all(|&v| v == 1.0);
         Ok(Self {
-            inv: DMatrix::from_diagonal(&DVector::from_iterator(d.len(), d.iter().map(|v| 1.0 / v))),
+            inv: DMatrix::from_diagonal(&DVector::from_iterator(
+                d.len(),
+                d.iter().map(|v| 1.0 / v),
+            )),
             identity,
         })
     }
@@ -59,8 +65,14 @@ impl Metric {
         if (&m - m.transpose()).amax() > 1e-12 * m.amax().max(1.0) {
             return Err(bad("metric must be symmetric".into()));
         }
-        let chol = m.clone().cholesky().ok_or_else(|| bad("metric is not positive definite".into()))?;
-        Ok(Self { inv: chol.inverse(), identity: false })
+        let chol = m
+            .clone()
+            .cholesky()
+            .ok_or_else(|| bad("metric is not positive definite".into()))?;
+        Ok(Self {
+            inv: chol.inverse(),
+            identity: false,
+        })
     }
 
     /// Dimension `n` of the joint space.
@@ -118,7 +130,11 @@ pub struct DampedPinv {
 
 impl DampedPinv {
     /// Validates the settings once: `λ ≥ 0` (finite), threshold `≥ 0`.
-    pub fn new(metric: Metric, damping: f64, singular_manipulability: f64) -> Result<Self, KinematicsError> {
+    pub fn new(
+        metric: Metric,
+        damping: f64,
+        singular_manipulability: f64,
+    ) -> Result<Self, KinematicsError> {
         if !(damping.is_finite() && damping >= 0.0) {
             return Err(KinematicsError::InvalidSetting {
                 field: "kinematics.damping".into(),
@@ -131,7 +147,11 @@ impl DampedPinv {
                 message: format!("{singular_manipulability} is not a finite non-negative number"),
             });
         }
-        Ok(Self { metric, damping, singular_manipulability })
+        Ok(Self {
+            metric,
+            damping,
+            singular_manipulability,
+        })
     }
 
     /// Damping `λ` of eq. 13.
@@ -199,7 +219,10 @@ impl DampedPinv {
         } else {
             PinvStatus::Regular
         };
-        PinvReport { status, manipulability }
+        PinvReport {
+            status,
+            manipulability,
+        }
     }
 
     /// `out = J⁺ v` for the Jacobian last factored into `ws`. Allocation-free.
@@ -243,7 +266,10 @@ impl DampedPinv {
         debug_assert_eq!(out.shape(), (n, m));
         let mut e = [0.0; 64];
         let mut col = [0.0; 64];
-        assert!(m <= 64 && n <= 64, "pseudo-inverse matrix limited to 64 rows/columns");
+        assert!(
+            m <= 64 && n <= 64,
+            "pseudo-inverse matrix limited to 64 rows/columns"
+        );
         for j in 0..m {
             e[..m].fill(0.0);
             e[j] = 1.0;

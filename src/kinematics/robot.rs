@@ -36,7 +36,11 @@ fn default_singular() -> f64 {
 
 impl Default for KinematicsSettings {
     fn default() -> Self {
-        Self { damping: 0.0, metric_diagonal: None, singular_manipulability: default_singular() }
+        Self {
+            damping: 0.0,
+            metric_diagonal: None,
+            singular_manipulability: default_singular(),
+        }
     }
 }
 
@@ -192,19 +196,34 @@ impl Kinematics {
 
     /// Stacked forward kinematics `x = f(q)` into `ws.x`. Allocation-free.
     pub fn forward<'w>(&self, q: &[f64], ws: &'w mut KinematicsWorkspace) -> &'w DVector<f64> {
-        assert_eq!(q.len(), self.n, "robot `{}`: expected {} joint values", self.robot, self.n);
+        assert_eq!(
+            q.len(),
+            self.n,
+            "robot `{}`: expected {} joint values",
+            self.robot,
+            self.n
+        );
         for (i, c) in self.chains.iter().enumerate() {
             let qi = &q[self.q_offsets[i]..self.q_offsets[i] + c.dof()];
             c.forward(qi, &mut ws.chains[i]);
             let xo = self.x_offsets[i];
-            c.task_point(&ws.chains[i], &mut ws.x.as_mut_slice()[xo..xo + c.task.dim()]);
+            c.task_point(
+                &ws.chains[i],
+                &mut ws.x.as_mut_slice()[xo..xo + c.task.dim()],
+            );
         }
         &ws.x
     }
 
     /// Forward kinematics and the stacked task Jacobian into `ws.x`, `ws.jac`. Allocation-free.
     pub fn jacobian(&self, q: &[f64], ws: &mut KinematicsWorkspace) {
-        assert_eq!(q.len(), self.n, "robot `{}`: expected {} joint values", self.robot, self.n);
+        assert_eq!(
+            q.len(),
+            self.n,
+            "robot `{}`: expected {} joint values",
+            self.robot,
+            self.n
+        );
         for (i, c) in self.chains.iter().enumerate() {
             let (qo, xo, d) = (self.q_offsets[i], self.x_offsets[i], c.task.dim());
             c.jacobian(&q[qo..qo + c.dof()], &mut ws.chains[i]);
@@ -220,7 +239,13 @@ impl Kinematics {
 
     /// Horizontal lift `out = J⁺(q) ẋ` (eqs. 13, 17) at `q`; also leaves `f(q)` in `ws.x`.
     /// Allocation-free.
-    pub fn lift(&self, q: &[f64], xdot: &[f64], out: &mut [f64], ws: &mut KinematicsWorkspace) -> PinvReport {
+    pub fn lift(
+        &self,
+        q: &[f64],
+        xdot: &[f64],
+        out: &mut [f64],
+        ws: &mut KinematicsWorkspace,
+    ) -> PinvReport {
         self.jacobian(q, ws);
         let report = self.pinv.factor(&ws.jac, &mut ws.pinv);
         self.pinv.solve(&mut ws.pinv, xdot, out);

@@ -20,6 +20,12 @@ use nalgebra::{DMatrix, DVector};
 use super::field::{lie_bracket, VectorField};
 use super::finite::SignedPermutation;
 
+/// A group action by exponential coordinates: `act(ξ, p, out)`, `false` where undefined.
+pub type ActionFn<'a> = &'a dyn Fn(&[f64], &[f64], &mut [f64]) -> bool;
+
+/// A one-parameter action: `act(t, p, out)`, `false` where undefined.
+pub type OneParamFn<'a> = &'a dyn Fn(f64, &[f64], &mut [f64]) -> bool;
+
 /// How a pair of symmetries composes, with the numerical evidence.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Composition {
@@ -63,14 +69,20 @@ fn norm(v: &[f64]) -> f64 {
 
 /// Max over samples and basis pairs of `‖[X_i, Y_j](p)‖ / (‖X_i(p)‖‖Y_j(p)‖ + ε)` (eq. 20),
 /// made relative so that it does not depend on units; samples where a field is undefined are skipped.
-pub fn bracket_residual(xs: &[&dyn VectorField], ys: &[&dyn VectorField], samples: &[Vec<f64>], h: f64) -> f64 {
+pub fn bracket_residual(
+    xs: &[&dyn VectorField],
+    ys: &[&dyn VectorField],
+    samples: &[Vec<f64>],
+    h: f64,
+) -> f64 {
     let mut worst: f64 = 0.0;
     for p in samples {
         let d = p.len();
         let (mut b, mut xv, mut yv) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
         for x in xs {
             for y in ys {
-                if !(lie_bracket(*x, *y, p, h, &mut b) && x.eval(p, &mut xv) && y.eval(p, &mut yv)) {
+                if !(lie_bracket(*x, *y, p, h, &mut b) && x.eval(p, &mut xv) && y.eval(p, &mut yv))
+                {
                     continue;
                 }
                 // Brackets of fields scale like |X||Y|/|p|: normalise by that.
@@ -104,7 +116,11 @@ pub fn commutation_residual(
 
 /// Fits the automorphism `C` with `ρ X_k(ρ⁻¹ p) = Σ_l C_lk X_l(p)` over samples (eq. 22);
 /// returns `(C, max relative residual)`. `C` is `k × k`.
-pub fn fit_automorphism(rho: &SignedPermutation, fields: &[&dyn VectorField], samples: &[Vec<f64>]) -> (DMatrix<f64>, f64) {
+pub fn fit_automorphism(
+    rho: &SignedPermutation,
+    fields: &[&dyn VectorField],
+    samples: &[Vec<f64>],
+) -> (DMatrix<f64>, f64) {
     let k = fields.len();
     let d = rho.dim();
     let inv = rho.inverse();
@@ -147,7 +163,9 @@ pub fn fit_automorphism(rho: &SignedPermutation, fields: &[&dyn VectorField], sa
     let a = DMatrix::from_row_slice(rows, k, &a_rows);
     let b = DMatrix::from_row_slice(rows, k, &b_rows);
     let svd = a.clone().svd(true, true);
-    let c = svd.solve(&b, 1e-12).unwrap_or_else(|_| DMatrix::zeros(k, k));
+    let c = svd
+        .solve(&b, 1e-12)
+        .unwrap_or_else(|_| DMatrix::zeros(k, k));
     let resid = &a * &c - &b;
     // Relative residual per sample block.
     let mut worst: f64 = 0.0;
@@ -170,7 +188,10 @@ pub struct ComposeTolerance {
 
 impl Default for ComposeTolerance {
     fn default() -> Self {
-        Self { commute: 1e-6, automorphism: 1e-6 }
+        Self {
+            commute: 1e-6,
+            automorphism: 1e-6,
+        }
     }
 }
 
@@ -179,7 +200,7 @@ impl Default for ComposeTolerance {
 pub fn classify_finite_lie(
     rho: &SignedPermutation,
     fields: &[&dyn VectorField],
-    act: &dyn Fn(&[f64], &[f64], &mut [f64]) -> bool,
+    act: ActionFn<'_>,
     test_elements: &[Vec<f64>],
     samples: &[Vec<f64>],
     tol: ComposeTolerance,
@@ -194,13 +215,22 @@ pub fn classify_finite_lie(
         commutation = commutation.max(commutation_residual(&apply_rho, &g, samples));
     }
     if commutation <= tol.commute {
-        return Composition::Direct { residual: commutation };
+        return Composition::Direct {
+            residual: commutation,
+        };
     }
     let (c, resid) = fit_automorphism(rho, fields, samples);
     if resid <= tol.automorphism {
-        Composition::SemiDirect { automorphism: c, residual: resid, commutation }
+        Composition::SemiDirect {
+            automorphism: c,
+            residual: resid,
+            commutation,
+        }
     } else {
-        Composition::Incompatible { commutation, automorphism: resid }
+        Composition::Incompatible {
+            commutation,
+            automorphism: resid,
+        }
     }
 }
 
@@ -216,7 +246,10 @@ pub fn classify_lie_lie(
     if r <= tol.commute {
         Composition::Direct { residual: r }
     } else {
-        Composition::Incompatible { commutation: r, automorphism: f64::INFINITY }
+        Composition::Incompatible {
+            commutation: r,
+            automorphism: f64::INFINITY,
+        }
     }
 }
 
@@ -230,9 +263,16 @@ pub fn classify_finite_finite(a: &SignedPermutation, b: &SignedPermutation) -> C
         let conj = a.compose(b).compose(&a.inverse());
         if conj == *b || conj == b.inverse() {
             let s = if conj == *b { 1.0 } else { -1.0 };
-            Composition::SemiDirect { automorphism: DMatrix::from_element(1, 1, s), residual: 0.0, commutation: r }
+            Composition::SemiDirect {
+                automorphism: DMatrix::from_element(1, 1, s),
+                residual: 0.0,
+                commutation: r,
+            }
         } else {
-            Composition::Incompatible { commutation: r, automorphism: f64::INFINITY }
+            Composition::Incompatible {
+                commutation: r,
+                automorphism: f64::INFINITY,
+            }
         }
     }
 }
@@ -251,7 +291,11 @@ pub struct Condition {
 
 impl Condition {
     /// The identity element `(0, 1, 1)`.
-    pub const IDENTITY: Self = Self { theta: 0.0, scale: 1.0, reflection: 1 };
+    pub const IDENTITY: Self = Self {
+        theta: 0.0,
+        scale: 1.0,
+        reflection: 1,
+    };
 
     /// Checks `θ` finite, `λ > 0` finite, `σ = ±1`; says what is wrong otherwise.
     pub fn validate(&self) -> Result<(), String> {
@@ -273,8 +317,8 @@ impl Condition {
 pub fn apply_condition(
     s: &Condition,
     rho: &SignedPermutation,
-    rotate: &dyn Fn(f64, &[f64], &mut [f64]) -> bool,
-    scale: &dyn Fn(f64, &[f64], &mut [f64]) -> bool,
+    rotate: OneParamFn<'_>,
+    scale: OneParamFn<'_>,
     p: &[f64],
     out: &mut [f64],
 ) -> bool {
@@ -295,7 +339,9 @@ pub fn apply_condition(
 /// Least-squares coordinates of `v` in the span of `basis` (columns), and the residual norm.
 pub fn span_coordinates(basis: &DMatrix<f64>, v: &DVector<f64>) -> (DVector<f64>, f64) {
     let svd = basis.clone().svd(true, true);
-    let c = svd.solve(v, 1e-12).unwrap_or_else(|_| DVector::zeros(basis.ncols()));
+    let c = svd
+        .solve(v, 1e-12)
+        .unwrap_or_else(|_| DVector::zeros(basis.ncols()));
     let r = (basis * &c - v).norm();
     (c, r)
 }

@@ -93,7 +93,13 @@ pub fn directional_derivative(
 ///
 /// Allocates small scratch vectors: this is an analysis tool, not a control-tick function.
 /// Returns `false` when either field is undefined near `p`.
-pub fn lie_bracket(x: &dyn VectorField, y: &dyn VectorField, p: &[f64], h: f64, out: &mut [f64]) -> bool {
+pub fn lie_bracket(
+    x: &dyn VectorField,
+    y: &dyn VectorField,
+    p: &[f64],
+    h: f64,
+    out: &mut [f64],
+) -> bool {
     let d = x.dim();
     assert_eq!(d, y.dim(), "Lie bracket of fields on different spaces");
     let mut xv = vec![0.0; d];
@@ -103,7 +109,9 @@ pub fn lie_bracket(x: &dyn VectorField, y: &dyn VectorField, p: &[f64], h: f64, 
     if !(x.eval(p, &mut xv) && y.eval(p, &mut yv)) {
         return false;
     }
-    if !(directional_derivative(x, p, &yv, h, &mut a) && directional_derivative(y, p, &xv, h, &mut b)) {
+    if !(directional_derivative(x, p, &yv, h, &mut a)
+        && directional_derivative(y, p, &xv, h, &mut b))
+    {
         return false;
     }
     for i in 0..d {
@@ -128,7 +136,13 @@ mod tests {
         });
         let sc = FnField::new(2, |p: &[f64], o: &mut [f64]| o.copy_from_slice(p));
         let mut out = [0.0; 2];
-        assert!(lie_bracket(&rot, &sc, &[0.3, -1.7], DEFAULT_FD_STEP, &mut out));
+        assert!(lie_bracket(
+            &rot,
+            &sc,
+            &[0.3, -1.7],
+            DEFAULT_FD_STEP,
+            &mut out
+        ));
         assert!(out.iter().all(|v| v.abs() < 1e-9), "{out:?}");
     }
 
@@ -144,7 +158,16 @@ mod tests {
             o[1] = p[0];
         });
         let mut out = [0.0; 2];
-        assert!(lie_bracket(&rot, &tx, &[2.0, 5.0], DEFAULT_FD_STEP, &mut out));
-        assert!((out[0] - 0.0).abs() < 1e-8 && (out[1] - 1.0).abs() < 1e-8, "{out:?}");
+        assert!(lie_bracket(
+            &rot,
+            &tx,
+            &[2.0, 5.0],
+            DEFAULT_FD_STEP,
+            &mut out
+        ));
+        assert!(
+            (out[0] - 0.0).abs() < 1e-8 && (out[1] - 1.0).abs() < 1e-8,
+            "{out:?}"
+        );
     }
 }

@@ -64,7 +64,11 @@ pub struct AffineAction {
 }
 
 fn skew(u: &Vector3<f64>) -> DMatrix<f64> {
-    DMatrix::from_column_slice(3, 3, Matrix3::new(0.0, -u.z, u.y, u.z, 0.0, -u.x, -u.y, u.x, 0.0).as_slice())
+    DMatrix::from_column_slice(
+        3,
+        3,
+        Matrix3::new(0.0, -u.z, u.y, u.z, 0.0, -u.x, -u.y, u.x, 0.0).as_slice(),
+    )
 }
 
 impl AffineAction {
@@ -77,15 +81,23 @@ impl AffineAction {
         center: Option<&[f64]>,
     ) -> Result<Self, String> {
         if !(block_dim == 2 || block_dim == 3) {
-            return Err(format!("`{name}`: task blocks must be 2-D or 3-D, got {block_dim}"));
+            return Err(format!(
+                "`{name}`: task blocks must be 2-D or 3-D, got {block_dim}"
+            ));
         }
         if blocks == 0 {
             return Err(format!("`{name}`: no task blocks"));
         }
         let center = match center {
             None => DVector::zeros(block_dim),
-            Some(c) if c.len() == block_dim && c.iter().all(|v| v.is_finite()) => DVector::from_column_slice(c),
-            Some(c) => return Err(format!("`{name}`: center {c:?} must have {block_dim} finite coordinates")),
+            Some(c) if c.len() == block_dim && c.iter().all(|v| v.is_finite()) => {
+                DVector::from_column_slice(c)
+            }
+            Some(c) => {
+                return Err(format!(
+                    "`{name}`: center {c:?} must have {block_dim} finite coordinates"
+                ))
+            }
         };
         let d = block_dim;
         let zero_b = || DVector::zeros(d);
@@ -93,13 +105,23 @@ impl AffineAction {
             LieGroupSpec::So2 { axis } => {
                 if d == 2 {
                     if axis.is_some_and(|a| a != [0.0, 0.0, 1.0]) {
-                        return Err(format!("`{name}`: SO(2) on planar blocks rotates about z only"));
+                        return Err(format!(
+                            "`{name}`: SO(2) on planar blocks rotates about z only"
+                        ));
                     }
-                    (vec![DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 1.0, 0.0])], vec![zero_b()])
+                    (
+                        vec![DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 1.0, 0.0])],
+                        vec![zero_b()],
+                    )
                 } else {
-                    let a = Vector3::from(axis.ok_or_else(|| format!("`{name}`: SO(2) on 3-D blocks needs `axis`"))?);
-                    if !(a.norm() > 1e-12) || a.iter().any(|v| !v.is_finite()) {
-                        return Err(format!("`{name}`: SO(2) axis {a:?} is not a non-zero vector"));
+                    let a =
+                        Vector3::from(axis.ok_or_else(|| {
+                            format!("`{name}`: SO(2) on 3-D blocks needs `axis`")
+                        })?);
+                    if a.norm() <= 1e-12 || a.iter().any(|v| !v.is_finite()) {
+                        return Err(format!(
+                            "`{name}`: SO(2) axis {a:?} is not a non-zero vector"
+                        ));
                     }
                     (vec![skew(&a.normalize())], vec![zero_b()])
                 }
@@ -109,14 +131,20 @@ impl AffineAction {
                     return Err(format!("`{name}`: SO(3) needs 3-D task blocks"));
                 }
                 (
-                    vec![skew(&Vector3::x()), skew(&Vector3::y()), skew(&Vector3::z())],
+                    vec![
+                        skew(&Vector3::x()),
+                        skew(&Vector3::y()),
+                        skew(&Vector3::z()),
+                    ],
                     vec![zero_b(), zero_b(), zero_b()],
                 )
             }
             LieGroupSpec::Scaling => (vec![DMatrix::identity(d, d)], vec![zero_b()]),
             LieGroupSpec::Translation { directions } => {
                 let dirs: Vec<Vec<f64>> = if directions.is_empty() {
-                    (0..d).map(|i| (0..d).map(|j| f64::from(u8::from(i == j))).collect()).collect()
+                    (0..d)
+                        .map(|i| (0..d).map(|j| f64::from(u8::from(i == j))).collect())
+                        .collect()
                 } else {
                     directions.clone()
                 };
@@ -130,7 +158,15 @@ impl AffineAction {
                 (offs.iter().map(|_| DMatrix::zeros(d, d)).collect(), offs)
             }
         };
-        Ok(Self { name: name.into(), spec, block_dim, blocks, center, linear, offset })
+        Ok(Self {
+            name: name.into(),
+            spec,
+            block_dim,
+            blocks,
+            center,
+            linear,
+            offset,
+        })
     }
 
     /// Dimension `k` of the Lie algebra (number of exponential coordinates).
@@ -161,7 +197,10 @@ impl AffineAction {
             }
         }
         let ex = aug.exp();
-        (ex.view((0, 0), (d, d)).into_owned(), ex.view((0, d), (d, 1)).column(0).into_owned())
+        (
+            ex.view((0, 0), (d, d)).into_owned(),
+            ex.view((0, d), (d, 1)).column(0).into_owned(),
+        )
     }
 
     /// `out = Φ(exp(ξ), x)` on every block.
@@ -197,7 +236,10 @@ impl AffineAction {
 
     /// The infinitesimal generator `X_ξ` (eq. 2) of the algebra element `ξ` as a vector field.
     pub fn generator(&self, xi: &[f64]) -> Generator<'_> {
-        Generator { action: self, xi: xi.to_vec() }
+        Generator {
+            action: self,
+            xi: xi.to_vec(),
+        }
     }
 
     /// Generator of the `k`-th basis element.
@@ -260,7 +302,10 @@ mod tests {
         // Differential of a linear action equals the action on vectors.
         let mut dv = [0.0; 4];
         r.differential(&[std::f64::consts::FRAC_PI_2], &x, &mut dv);
-        assert_eq!(dv.map(|v| (v * 1e9).round()), out.map(|v| (v * 1e9).round()));
+        assert_eq!(
+            dv.map(|v| (v * 1e9).round()),
+            out.map(|v| (v * 1e9).round())
+        );
     }
 
     #[test]
@@ -268,13 +313,20 @@ mod tests {
         let s = AffineAction::new("S", LieGroupSpec::Scaling, 2, 1, Some(&[1.0, 1.0])).unwrap();
         let mut out = [0.0; 2];
         s.act(&[0.5f64.ln()], &[3.0, 1.0], &mut out);
-        assert!((out[0] - 2.0).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12, "{out:?}");
+        assert!(
+            (out[0] - 2.0).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12,
+            "{out:?}"
+        );
     }
 
     #[test]
     fn so3_brackets_close_with_structure_constants() {
         let r = AffineAction::new("R3", LieGroupSpec::So3, 3, 1, None).unwrap();
-        let (x, y, z) = (r.basis_generator(0), r.basis_generator(1), r.basis_generator(2));
+        let (x, y, z) = (
+            r.basis_generator(0),
+            r.basis_generator(1),
+            r.basis_generator(2),
+        );
         let p = [0.3, -0.8, 1.1];
         let mut b = [0.0; 3];
         let mut zv = [0.0; 3];
@@ -289,10 +341,23 @@ mod tests {
 
     #[test]
     fn so2_about_an_axis_in_3d() {
-        let r = AffineAction::new("R", LieGroupSpec::So2 { axis: Some([0.0, 0.0, 2.0]) }, 3, 1, None).unwrap();
+        let r = AffineAction::new(
+            "R",
+            LieGroupSpec::So2 {
+                axis: Some([0.0, 0.0, 2.0]),
+            },
+            3,
+            1,
+            None,
+        )
+        .unwrap();
         let mut out = [0.0; 3];
         r.act(&[std::f64::consts::PI], &[1.0, 2.0, 3.0], &mut out);
-        assert!((out[0] + 1.0).abs() < 1e-12 && (out[1] + 2.0).abs() < 1e-12 && (out[2] - 3.0).abs() < 1e-12);
+        assert!(
+            (out[0] + 1.0).abs() < 1e-12
+                && (out[1] + 2.0).abs() < 1e-12
+                && (out[2] - 3.0).abs() < 1e-12
+        );
         assert!(AffineAction::new("R", LieGroupSpec::So2 { axis: None }, 3, 1, None).is_err());
     }
 }

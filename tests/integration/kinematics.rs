@@ -5,8 +5,8 @@
 use std::collections::HashMap;
 
 use crossym::kinematics::{
-    Chain, ChainSpec, DampedPinv, JointKind, Kinematics, KinematicsError, KinematicsSettings, Metric,
-    PinvStatus, RobotModel, TaskSpace, ToolOffset,
+    Chain, ChainSpec, DampedPinv, JointKind, Kinematics, KinematicsError, KinematicsSettings,
+    Metric, PinvStatus, RobotModel, TaskSpace, ToolOffset,
 };
 use nalgebra::DMatrix;
 
@@ -18,7 +18,10 @@ fn test_arm() -> (RobotModel, Chain) {
         name: "arm".into(),
         base: "base_link".into(),
         tip: "tool0".into(),
-        tool: ToolOffset { xyz: [0.0, 0.01, 0.03], rpy: [0.1, 0.0, -0.2] },
+        tool: ToolOffset {
+            xyz: [0.0, 0.01, 0.03],
+            rpy: [0.1, 0.0, -0.2],
+        },
         task: TaskSpace::Xyz,
     };
     let chain = Chain::new(&model, &spec, &HashMap::new()).unwrap();
@@ -102,7 +105,11 @@ fn stacked_jacobian_is_block_diagonal_and_matches_finite_differences() {
                 let xm = k.forward(&qm, &mut ws).clone();
                 for r in 0..k.task_dim() {
                     let fd = (xp[r] - xm[r]) / (2.0 * h);
-                    assert!((fd - j[(r, c)]).abs() <= 1e-7 * 12.0, "{} J[{r},{c}]", k.robot);
+                    assert!(
+                        (fd - j[(r, c)]).abs() <= 1e-7 * 12.0,
+                        "{} J[{r},{c}]",
+                        k.robot
+                    );
                 }
             }
             // Off-diagonal blocks are exactly zero.
@@ -137,7 +144,12 @@ fn planar_fk_matches_closed_form() {
     // the right give mirror images across the x-axis.
     let pi = std::f64::consts::PI;
     let q0 = [pi / 4.0, -pi / 6.0, -pi / 8.0, -pi / 10.0];
-    let q: Vec<f64> = q0.iter().chain(q0.iter()).enumerate().map(|(i, v)| if i < 4 { *v } else { -v }).collect();
+    let q: Vec<f64> = q0
+        .iter()
+        .chain(q0.iter())
+        .enumerate()
+        .map(|(i, v)| if i < 4 { *v } else { -v })
+        .collect();
     let x = k.forward(&q, &mut ws).clone();
     assert!((x[0] - x[2]).abs() < 1e-12 && (x[1] + x[3]).abs() < 1e-12);
 }
@@ -152,7 +164,10 @@ fn pseudo_inverse_identities() {
         let (n, m) = (k.dof(), k.task_dim());
         let mut ws = k.workspace();
         let mut checked = 0;
-        for metric in [Metric::identity(n), Metric::diagonal(&(0..n).map(|i| 1.0 + i as f64 * 0.3).collect::<Vec<_>>()).unwrap()] {
+        for metric in [
+            Metric::identity(n),
+            Metric::diagonal(&(0..n).map(|i| 1.0 + i as f64 * 0.3).collect::<Vec<_>>()).unwrap(),
+        ] {
             let pinv = DampedPinv::new(metric, 0.0, 1e-6).unwrap();
             let mut pws = pinv.workspace(m);
             let mut jp = DMatrix::zeros(n, m);
@@ -167,13 +182,20 @@ fn pseudo_inverse_identities() {
                 checked += 1;
                 pinv.matrix(&mut pws, &mut jp);
                 let jjp = &ws.jac * &jp;
-                assert!((jjp - DMatrix::<f64>::identity(m, m)).amax() < 1e-8, "J J⁺ ≠ I for {}", k.robot);
+                assert!(
+                    (jjp - DMatrix::<f64>::identity(m, m)).amax() < 1e-8,
+                    "J J⁺ ≠ I for {}",
+                    k.robot
+                );
                 DampedPinv::nullspace_projector(&ws.jac, &jp, &mut proj);
                 assert!((&ws.jac * &proj).amax() < 1e-8, "J N ≠ 0 for {}", k.robot);
                 // N is idempotent, and J⁺ is M-orthogonal to the nullspace: Nᵀ M J⁺ = 0.
                 assert!((&proj * &proj - &proj).amax() < 1e-8);
                 let m_mat = pinv.metric().inverse().clone().try_inverse().unwrap();
-                assert!((proj.transpose() * &m_mat * &jp).amax() < 1e-8, "lift is not M-horizontal");
+                assert!(
+                    (proj.transpose() * &m_mat * &jp).amax() < 1e-8,
+                    "lift is not M-horizontal"
+                );
                 assert!(rep.manipulability > 0.0);
             }
         }
@@ -185,14 +207,28 @@ fn pseudo_inverse_identities() {
 fn damping_is_applied_and_singularities_are_reported() {
     let planar = common::planar();
     let model = &planar.model;
-    let specs: Vec<ChainSpec> = planar.kinematics.chains().iter().map(|c| ChainSpec {
-        name: c.name.clone(),
-        base: c.base.clone(),
-        tip: c.tip.clone(),
-        tool: ToolOffset::default(),
-        task: c.task,
-    }).collect();
-    let k = Kinematics::new(model, &specs, &HashMap::new(), &KinematicsSettings { damping: 0.1, ..Default::default() }).unwrap();
+    let specs: Vec<ChainSpec> = planar
+        .kinematics
+        .chains()
+        .iter()
+        .map(|c| ChainSpec {
+            name: c.name.clone(),
+            base: c.base.clone(),
+            tip: c.tip.clone(),
+            tool: ToolOffset::default(),
+            task: c.task,
+        })
+        .collect();
+    let k = Kinematics::new(
+        model,
+        &specs,
+        &HashMap::new(),
+        &KinematicsSettings {
+            damping: 0.1,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert_eq!(k.pinv().damping(), 0.1);
     let mut ws = k.workspace();
     // Fully stretched arms (q = 0) are singular: the Jacobian loses rank.
@@ -207,18 +243,30 @@ fn damping_is_applied_and_singularities_are_reported() {
     assert!(out.iter().all(|v| v.is_finite()));
     assert!(out.iter().map(|v| v * v).sum::<f64>().sqrt() <= 2f64.sqrt() / (2.0 * 0.1) + 1e-9);
     // Undamped at the singularity: no solution is formed, zeros are returned.
-    let k0 = Kinematics::new(model, &specs, &HashMap::new(), &KinematicsSettings::default()).unwrap();
+    let k0 = Kinematics::new(
+        model,
+        &specs,
+        &HashMap::new(),
+        &KinematicsSettings::default(),
+    )
+    .unwrap();
     let mut ws0 = k0.workspace();
     k0.jacobian(&q, &mut ws0);
     assert_eq!(k0.factor(&mut ws0).status, PinvStatus::Singular);
     k0.solve(&mut ws0, &[0.0, 1.0, 1.0, 0.0], &mut out);
     assert!(out.iter().all(|v| *v == 0.0));
-    assert!(crossym::kinematics::condition_number(&ws0.jac).is_infinite() || crossym::kinematics::condition_number(&ws0.jac) > 1e8);
+    assert!(
+        crossym::kinematics::condition_number(&ws0.jac).is_infinite()
+            || crossym::kinematics::condition_number(&ws0.jac) > 1e8
+    );
 }
 
 #[test]
+#[allow(clippy::approx_constant)] // the URDF writes π as 3.141592654: compare with its text
 fn rby1_limits_and_acceleration_attribute_are_parsed() {
-    let Some(urdf) = common::rby1_urdf() else { return };
+    let Some(urdf) = common::rby1_urdf() else {
+        return;
+    };
     let model = RobotModel::from_urdf_file(&urdf).unwrap();
     let l1 = model.joint("left_arm_1").unwrap().limits;
     let r1 = model.joint("right_arm_1").unwrap().limits;
@@ -231,12 +279,23 @@ fn rby1_limits_and_acceleration_attribute_are_parsed() {
             assert_eq!(j.limits.acceleration, Some(10.0), "{side}_arm_{i}");
         }
     }
-    assert_eq!(model.joint("torso_0").unwrap().limits.acceleration, Some(5.0));
+    assert_eq!(
+        model.joint("torso_0").unwrap().limits.acceleration,
+        Some(5.0)
+    );
     assert_eq!(model.joint("head_0").unwrap().limits.acceleration, None);
-    assert!(model.joint("right_wheel").unwrap().limits.upper.is_infinite());
+    assert!(model
+        .joint("right_wheel")
+        .unwrap()
+        .limits
+        .upper
+        .is_infinite());
     // The RB-Y1 config controls exactly the 14 arm joints.
     let rby1 = common::rby1().unwrap();
-    let names: Vec<String> = ["left", "right"].iter().flat_map(|s| (0..7).map(move |i| format!("{s}_arm_{i}"))).collect();
+    let names: Vec<String> = ["left", "right"]
+        .iter()
+        .flat_map(|s| (0..7).map(move |i| format!("{s}_arm_{i}")))
+        .collect();
     assert_eq!(rby1.kinematics.joint_names(), &names[..]);
 }
 
@@ -246,19 +305,29 @@ fn config_overrides_supply_acceleration_limits() {
         "[robot]\nurdf = \"{}\"\n[[robot.chains]]\nname = \"arm\"\nbase = \"base_link\"\ntip = \"tool0\"\n[robot.limits.j2]\nacceleration = 4.5\nvelocity = 1.25\n",
         common::path("urdf/test_arm_7dof.urdf").display()
     );
-    let cfg = crossym::config::Config::from_toml_str(&text, std::path::Path::new("inline.toml")).unwrap();
+    let cfg =
+        crossym::config::Config::from_toml_str(&text, std::path::Path::new("inline.toml")).unwrap();
     let robot = cfg.load_robot().unwrap();
     let lim = robot.kinematics.limits();
     assert_eq!(lim[0].acceleration, Some(8.0), "URDF value kept");
     assert_eq!(lim[1].acceleration, Some(4.5), "config supplies it");
     assert_eq!(lim[1].velocity, 1.25);
-    assert!(lim[2].lower.is_infinite(), "continuous joint j3 is unbounded");
+    assert!(
+        lim[2].lower.is_infinite(),
+        "continuous joint j3 is unbounded"
+    );
 }
 
 #[test]
 fn held_joints_are_frozen_into_the_chain() {
     let (model, _) = test_arm();
-    let spec = ChainSpec { name: "arm".into(), base: "base_link".into(), tip: "tool0".into(), tool: ToolOffset::default(), task: TaskSpace::Xyz };
+    let spec = ChainSpec {
+        name: "arm".into(),
+        base: "base_link".into(),
+        tip: "tool0".into(),
+        tool: ToolOffset::default(),
+        task: TaskSpace::Xyz,
+    };
     let held: HashMap<String, f64> = [("j3".to_string(), 0.7)].into();
     let six = Chain::new(&model, &spec, &held).unwrap();
     let seven = Chain::new(&model, &spec, &HashMap::new()).unwrap();
@@ -285,29 +354,75 @@ fn broken_input_gives_clear_errors() {
     // A zero axis on a movable joint.
     let xml = r#"<robot name="r"><link name="a"/><link name="b"/><joint name="j0" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"#;
     let e = RobotModel::from_urdf_str(xml, "axis.urdf").unwrap_err();
-    assert!(matches!(e, KinematicsError::BadJoint { ref joint, .. } if joint == "j0"), "{e}");
+    assert!(
+        matches!(e, KinematicsError::BadJoint { ref joint, .. } if joint == "j0"),
+        "{e}"
+    );
     // A non-numeric acceleration attribute.
     let xml = r#"<robot name="r"><link name="a"/><link name="b"/><joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1" acceleration="fast"/></joint></robot>"#;
     let e = RobotModel::from_urdf_str(xml, "acc.urdf").unwrap_err();
-    assert!(e.to_string().contains("fast") && e.to_string().contains("j1"), "{e}");
+    assert!(
+        e.to_string().contains("fast") && e.to_string().contains("j1"),
+        "{e}"
+    );
     // Missing file names the path.
     let e = RobotModel::from_urdf_file("/nonexistent/robot.urdf").unwrap_err();
     assert!(e.to_string().contains("/nonexistent/robot.urdf"));
     // Unknown link and not-a-chain in configuration.
     let (model, _) = test_arm();
-    let spec = ChainSpec { name: "arm".into(), base: "base_link".into(), tip: "nope".into(), tool: ToolOffset::default(), task: TaskSpace::Xyz };
+    let spec = ChainSpec {
+        name: "arm".into(),
+        base: "base_link".into(),
+        tip: "nope".into(),
+        tool: ToolOffset::default(),
+        task: TaskSpace::Xyz,
+    };
     let e = Chain::new(&model, &spec, &HashMap::new()).unwrap_err();
-    assert!(matches!(e, KinematicsError::UnknownLink { ref link, .. } if link == "nope"), "{e}");
-    let spec = ChainSpec { name: "arm".into(), base: "tool0".into(), tip: "base_link".into(), tool: ToolOffset::default(), task: TaskSpace::Xyz };
-    assert!(matches!(Chain::new(&model, &spec, &HashMap::new()), Err(KinematicsError::NotAChain { .. })));
+    assert!(
+        matches!(e, KinematicsError::UnknownLink { ref link, .. } if link == "nope"),
+        "{e}"
+    );
+    let spec = ChainSpec {
+        name: "arm".into(),
+        base: "tool0".into(),
+        tip: "base_link".into(),
+        tool: ToolOffset::default(),
+        task: TaskSpace::Xyz,
+    };
+    assert!(matches!(
+        Chain::new(&model, &spec, &HashMap::new()),
+        Err(KinematicsError::NotAChain { .. })
+    ));
     // Unknown held joint and bad settings.
-    let spec = ChainSpec { name: "arm".into(), base: "base_link".into(), tip: "tool0".into(), tool: ToolOffset::default(), task: TaskSpace::Xyz };
+    let spec = ChainSpec {
+        name: "arm".into(),
+        base: "base_link".into(),
+        tip: "tool0".into(),
+        tool: ToolOffset::default(),
+        task: TaskSpace::Xyz,
+    };
     let held: HashMap<String, f64> = [("jX".to_string(), 0.0)].into();
-    assert!(matches!(Chain::new(&model, &spec, &held), Err(KinematicsError::UnknownJoint { .. })));
-    let bad = KinematicsSettings { damping: -1.0, ..Default::default() };
-    assert!(matches!(Kinematics::new(&model, std::slice::from_ref(&spec), &HashMap::new(), &bad), Err(KinematicsError::InvalidSetting { .. })));
+    assert!(matches!(
+        Chain::new(&model, &spec, &held),
+        Err(KinematicsError::UnknownJoint { .. })
+    ));
+    let bad = KinematicsSettings {
+        damping: -1.0,
+        ..Default::default()
+    };
+    assert!(matches!(
+        Kinematics::new(&model, std::slice::from_ref(&spec), &HashMap::new(), &bad),
+        Err(KinematicsError::InvalidSetting { .. })
+    ));
     assert!(Metric::diagonal(&[1.0, f64::NAN]).is_err());
     // A config with a typo'd key is rejected with the file name.
-    let e = crossym::config::Config::from_toml_str("[robot]\nurdf='x'\nchains=[]\ndampnig=1\n", std::path::Path::new("typo.toml")).unwrap_err();
-    assert!(e.to_string().contains("typo.toml") && e.to_string().contains("dampnig"), "{e}");
+    let e = crossym::config::Config::from_toml_str(
+        "[robot]\nurdf='x'\nchains=[]\ndampnig=1\n",
+        std::path::Path::new("typo.toml"),
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("typo.toml") && e.to_string().contains("dampnig"),
+        "{e}"
+    );
 }

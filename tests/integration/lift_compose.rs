@@ -3,12 +3,14 @@
 
 use std::f64::consts::{FRAC_PI_6, PI, TAU};
 
-use crossym::symmetry::compose::{self, Composition, ComposeTolerance, Condition};
+use crossym::symmetry::compose::{self, ComposeTolerance, Composition, Condition};
 use crossym::symmetry::field::{VectorField, DEFAULT_FD_STEP};
 use crossym::symmetry::finite::SignedPermutation;
 use crossym::symmetry::lie::{AffineAction, LieGroupSpec};
 use crossym::symmetry::transfer::flow::FlowSettings;
-use crossym::symmetry::transfer::lift::{bracket_condition, periodicity_drift, LiftError, LiftedAction, LiftedField};
+use crossym::symmetry::transfer::lift::{
+    bracket_condition, periodicity_drift, LiftError, LiftedAction, LiftedField,
+};
 use rand::Rng;
 
 use crate::common;
@@ -22,7 +24,14 @@ fn rest() -> Vec<f64> {
 /// Random configurations near the rest posture (the letter-task region).
 fn near_rest(n: usize, seed: u64) -> Vec<Vec<f64>> {
     let mut rng = common::rng(seed);
-    (0..n).map(|_| rest().iter().map(|v| v + rng.random_range(-0.3..0.3)).collect()).collect()
+    (0..n)
+        .map(|_| {
+            rest()
+                .iter()
+                .map(|v| v + rng.random_range(-0.3..0.3))
+                .collect()
+        })
+        .collect()
 }
 
 fn planar_rotation() -> AffineAction {
@@ -48,7 +57,10 @@ fn example2_lifted_so2_is_f_related_and_equivariant() {
         k.jacobian(&q, &mut ws);
         let x = ws.x.clone();
         r.basis_generator(0).eval(x.as_slice(), &mut xx);
-        assert!((x[0] * xx[1] - x[1] * xx[0] - (x[0] * x[0] + x[1] * x[1])).abs() < 1e-9, "Ω x is the rotation field");
+        assert!(
+            (x[0] * xx[1] - x[1] * xx[0] - (x[0] * x[0] + x[1] * x[1])).abs() < 1e-9,
+            "Ω x is the rotation field"
+        );
         let jxq = &ws.jac * nalgebra::DVector::from_column_slice(&xq);
         for i in 0..4 {
             assert!((jxq[i] - xx[i]).abs() < 1e-9, "f-relatedness");
@@ -61,7 +73,10 @@ fn example2_lifted_so2_is_f_related_and_equivariant() {
     for (i, q) in near_rest(20, 11).iter().enumerate() {
         for theta in [FRAC_PI_6, -FRAC_PI_6, 1.0, -2.0 + 0.1 * i as f64] {
             let e = lifted.equivariance_residual(&[theta], q, &mut lws).unwrap();
-            assert!(e / reach <= 1e-6, "equivariance residual {e:e} at θ={theta}");
+            assert!(
+                e / reach <= 1e-6,
+                "equivariance residual {e:e} at θ={theta}"
+            );
         }
     }
 }
@@ -84,11 +99,17 @@ fn lifted_action_group_laws() {
         // Inverse: Φ(−θ, Φ(θ, q)) = q (a flow, so exact up to integration error).
         lifted.act(&[t1], &q, &mut a, &mut ws).unwrap();
         lifted.act(&[-t1], &a, &mut b, &mut ws).unwrap();
-        assert!(q.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-8), "inverse law");
+        assert!(
+            q.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-8),
+            "inverse law"
+        );
         // Composition of a one-parameter group: Φ(θ2, Φ(θ1, q)) = Φ(θ1 + θ2, q).
         lifted.act(&[t2], &a, &mut b, &mut ws).unwrap();
         lifted.act(&[t1 + t2], &q, &mut c, &mut ws).unwrap();
-        assert!(b.iter().zip(&c).all(|(x, y)| (x - y).abs() < 1e-8), "composition law");
+        assert!(
+            b.iter().zip(&c).all(|(x, y)| (x - y).abs() < 1e-8),
+            "composition law"
+        );
     }
 }
 
@@ -106,19 +127,30 @@ fn lifted_differential_matches_finite_differences_of_the_action() {
             let qdot: Vec<f64> = (0..8).map(|_| rng.random_range(-1.0..1.0)).collect();
             let xi = [if action.name == "S" { 0.8f64.ln() } else { 0.7 }];
             let (mut q1, mut v1) = (vec![0.0; 8], vec![0.0; 8]);
-            lifted.act_with_differential(&xi, &q, &qdot, &mut q1, &mut v1, &mut ws).unwrap();
+            lifted
+                .act_with_differential(&xi, &q, &qdot, &mut q1, &mut v1, &mut ws)
+                .unwrap();
             let (mut qp, mut qm) = (vec![0.0; 8], vec![0.0; 8]);
             let h = 1e-5;
             let q_plus: Vec<f64> = q.iter().zip(&qdot).map(|(a, b)| a + h * b).collect();
             let q_minus: Vec<f64> = q.iter().zip(&qdot).map(|(a, b)| a - h * b).collect();
-            let tight = FlowSettings { rtol: 1e-13, atol: 1e-14, ..Default::default() };
+            let tight = FlowSettings {
+                rtol: 1e-13,
+                atol: 1e-14,
+                ..Default::default()
+            };
             let precise = LiftedAction::new(k, action, tight).unwrap();
             let mut pws = precise.workspace();
             precise.act(&xi, &q_plus, &mut qp, &mut pws).unwrap();
             precise.act(&xi, &q_minus, &mut qm, &mut pws).unwrap();
             for i in 0..8 {
                 let fd = (qp[i] - qm[i]) / (2.0 * h);
-                assert!((fd - v1[i]).abs() < 1e-5 * (1.0 + fd.abs()), "{}: dΦ q̇ [{i}] {} vs FD {fd}", action.name, v1[i]);
+                assert!(
+                    (fd - v1[i]).abs() < 1e-5 * (1.0 + fd.abs()),
+                    "{}: dΦ q̇ [{i}] {} vs FD {fd}",
+                    action.name,
+                    v1[i]
+                );
             }
             // The transformed velocity realises the transformed task velocity: J(q') q̇' = dΦ_X J(q) q̇.
             let mut kws = k.workspace();
@@ -129,7 +161,11 @@ fn lifted_differential_matches_finite_differences_of_the_action() {
             k.jacobian(&q1, &mut kws);
             let got = &kws.jac * nalgebra::DVector::from_column_slice(&v1);
             for i in 0..4 {
-                assert!((got[i] - want[i]).abs() < 1e-6, "{}: task velocity {i}", action.name);
+                assert!(
+                    (got[i] - want[i]).abs() < 1e-6,
+                    "{}: task velocity {i}",
+                    action.name
+                );
             }
         }
     }
@@ -155,8 +191,14 @@ fn periodicity_and_bracket_condition_are_reported() {
         lifted.act(&[TAU], &q, &mut q1, &mut ws).unwrap();
         let x0 = k.forward(&q, &mut kws).clone();
         let x1 = k.forward(&q1, &mut kws).clone();
-        assert!((x1 - x0).amax() < 1e-6 * 12.0, "hands return after a full turn");
-        assert!(drift > 0.1, "expected a vertical drift with M = I, got {drift:e}");
+        assert!(
+            (x1 - x0).amax() < 1e-6 * 12.0,
+            "hands return after a full turn"
+        );
+        assert!(
+            drift > 0.1,
+            "expected a vertical drift with M = I, got {drift:e}"
+        );
     }
     // eq. 16 for SO(2) × S: the task bracket is 0 (Example 3); the lifted bracket is
     // f-related to it, so what remains is vertical, and it is not zero for M = I here.
@@ -164,9 +206,18 @@ fn periodicity_and_bracket_condition_are_reported() {
     let sg = s.basis_generator(0);
     let rep = bracket_condition(k, &rg, &sg, &near_rest(30, 17), DEFAULT_FD_STEP);
     assert_eq!(rep.samples, 30);
-    assert!(rep.horizontal_mismatch < 1e-6, "J[X_Q^R, X_Q^S] must equal [X_X^R, X_X^S] = 0: {rep:?}");
-    assert!((rep.residual - rep.vertical).abs() < 1e-6, "with a zero task bracket the residual is the vertical part: {rep:?}");
-    assert!(rep.vertical_relative > 1e-3, "expected a vertical bracket with M = I: {rep:?}");
+    assert!(
+        rep.horizontal_mismatch < 1e-6,
+        "J[X_Q^R, X_Q^S] must equal [X_X^R, X_X^S] = 0: {rep:?}"
+    );
+    assert!(
+        (rep.residual - rep.vertical).abs() < 1e-6,
+        "with a zero task bracket the residual is the vertical part: {rep:?}"
+    );
+    assert!(
+        rep.vertical_relative > 1e-3,
+        "expected a vertical bracket with M = I: {rep:?}"
+    );
 }
 
 #[test]
@@ -183,7 +234,9 @@ fn singularity_along_the_flow_stops_with_an_error() {
     assert!(matches!(err, LiftError::Singular { .. }), "{err}");
     assert!(err.to_string().contains("singularity"), "{err}");
     // Starting at the stretched singular posture is refused up front.
-    let err = lifted.act(&[0.1], &[0.0; 8], &mut out, &mut ws).unwrap_err();
+    let err = lifted
+        .act(&[0.1], &[0.0; 8], &mut out, &mut ws)
+        .unwrap_err();
     assert!(matches!(err, LiftError::BadStart { .. }), "{err}");
 }
 
@@ -193,9 +246,17 @@ fn example3_rotation_and_scaling_compose_directly() {
     let r = planar_rotation();
     let s = planar_scaling();
     let mut rng = common::rng(18);
-    let xs: Vec<Vec<f64>> = (0..20).map(|_| (0..4).map(|_| rng.random_range(-5.0..5.0)).collect()).collect();
+    let xs: Vec<Vec<f64>> = (0..20)
+        .map(|_| (0..4).map(|_| rng.random_range(-5.0..5.0)).collect())
+        .collect();
     let (rg, sg) = (r.basis_generator(0), s.basis_generator(0));
-    let c = compose::classify_lie_lie(&[&rg], &[&sg], &xs, DEFAULT_FD_STEP, ComposeTolerance::default());
+    let c = compose::classify_lie_lie(
+        &[&rg],
+        &[&sg],
+        &xs,
+        DEFAULT_FD_STEP,
+        ComposeTolerance::default(),
+    );
     assert!(matches!(c, Composition::Direct { .. }), "{c:?}");
     // Group level in X: R(θ) λ x = λ R(θ) x.
     let rot = |p: &[f64], o: &mut [f64]| {
@@ -212,9 +273,21 @@ fn example3_rotation_and_scaling_compose_directly() {
     // composed actions still agree in task space in either order (f-equivariance).
     let robot = common::planar();
     let k = &robot.kinematics;
-    let (lr, ls) = (LiftedField::new(k, r.basis_generator(0)), LiftedField::new(k, s.basis_generator(0)));
-    let c = compose::classify_lie_lie(&[&lr], &[&ls], &near_rest(20, 19), DEFAULT_FD_STEP, ComposeTolerance::default());
-    assert!(matches!(c, Composition::Incompatible { commutation, .. } if commutation > 1e-3), "{c:?}");
+    let (lr, ls) = (
+        LiftedField::new(k, r.basis_generator(0)),
+        LiftedField::new(k, s.basis_generator(0)),
+    );
+    let c = compose::classify_lie_lie(
+        &[&lr],
+        &[&ls],
+        &near_rest(20, 19),
+        DEFAULT_FD_STEP,
+        ComposeTolerance::default(),
+    );
+    assert!(
+        matches!(c, Composition::Incompatible { commutation, .. } if commutation > 1e-3),
+        "{c:?}"
+    );
     let (ar, as_) = (
         LiftedAction::new(k, &r, FlowSettings::default()).unwrap(),
         LiftedAction::new(k, &s, FlowSettings::default()).unwrap(),
@@ -222,7 +295,8 @@ fn example3_rotation_and_scaling_compose_directly() {
     let mut ws = ar.workspace();
     let mut kws = k.workspace();
     for q in near_rest(5, 22) {
-        let (mut a, mut rs, mut b, mut sr) = (vec![0.0; 8], vec![0.0; 8], vec![0.0; 8], vec![0.0; 8]);
+        let (mut a, mut rs, mut b, mut sr) =
+            (vec![0.0; 8], vec![0.0; 8], vec![0.0; 8], vec![0.0; 8]);
         ar.act(&[1.0], &q, &mut a, &mut ws).unwrap();
         as_.act(&[0.7f64.ln()], &a, &mut rs, &mut ws).unwrap();
         as_.act(&[0.7f64.ln()], &q, &mut b, &mut ws).unwrap();
@@ -239,16 +313,32 @@ fn example4_reflection_and_rotation_form_o2() {
     let r1 = AffineAction::new("R", LieGroupSpec::So2 { axis: None }, 2, 1, None).unwrap();
     let rho = SignedPermutation::new(vec![0, 1], vec![1.0, -1.0]).unwrap();
     let mut rng = common::rng(20);
-    let xs: Vec<Vec<f64>> = (0..20).map(|_| (0..2).map(|_| rng.random_range(-5.0..5.0)).collect()).collect();
+    let xs: Vec<Vec<f64>> = (0..20)
+        .map(|_| (0..2).map(|_| rng.random_range(-5.0..5.0)).collect())
+        .collect();
     let g = r1.basis_generator(0);
     let act = |xi: &[f64], p: &[f64], o: &mut [f64]| {
         r1.act(xi, p, o);
         true
     };
-    let c = compose::classify_finite_lie(&rho, &[&g], &act, &[vec![0.5], vec![-1.2]], &xs, ComposeTolerance::default());
+    let c = compose::classify_finite_lie(
+        &rho,
+        &[&g],
+        &act,
+        &[vec![0.5], vec![-1.2]],
+        &xs,
+        ComposeTolerance::default(),
+    );
     match &c {
-        Composition::SemiDirect { automorphism, residual, commutation } => {
-            assert!((automorphism[(0, 0)] + 1.0).abs() < 1e-9, "C = {automorphism}");
+        Composition::SemiDirect {
+            automorphism,
+            residual,
+            commutation,
+        } => {
+            assert!(
+                (automorphism[(0, 0)] + 1.0).abs() < 1e-9,
+                "C = {automorphism}"
+            );
             assert!(*residual < 1e-9 && *commutation > 0.1);
         }
         other => panic!("expected semi-direct, got {other:?}"),
@@ -271,10 +361,23 @@ fn example4_reflection_and_rotation_form_o2() {
     let lf = LiftedField::new(k, r.basis_generator(0));
     let lifted = LiftedAction::new(k, &r, FlowSettings::default()).unwrap();
     let ws = std::cell::RefCell::new(lifted.workspace());
-    let act_q = |xi: &[f64], q: &[f64], o: &mut [f64]| lifted.act(xi, q, o, &mut ws.borrow_mut()).is_ok();
-    let c = compose::classify_finite_lie(&rho_q, &[&lf], &act_q, &[vec![0.5]], &near_rest(20, 21), ComposeTolerance { commute: 1e-6, automorphism: 1e-6 });
+    let act_q =
+        |xi: &[f64], q: &[f64], o: &mut [f64]| lifted.act(xi, q, o, &mut ws.borrow_mut()).is_ok();
+    let c = compose::classify_finite_lie(
+        &rho_q,
+        &[&lf],
+        &act_q,
+        &[vec![0.5]],
+        &near_rest(20, 21),
+        ComposeTolerance {
+            commute: 1e-6,
+            automorphism: 1e-6,
+        },
+    );
     match &c {
-        Composition::SemiDirect { automorphism, .. } => assert!((automorphism[(0, 0)] + 1.0).abs() < 1e-6, "{automorphism}"),
+        Composition::SemiDirect { automorphism, .. } => {
+            assert!((automorphism[(0, 0)] + 1.0).abs() < 1e-6, "{automorphism}")
+        }
         other => panic!("expected semi-direct in Q, got {other:?}"),
     }
 }
@@ -295,17 +398,43 @@ fn composed_condition_acts_in_paper_order_and_validates() {
     };
     let x = [10.0, 1.0, 10.0, -1.0];
     let mut out = [0.0; 4];
-    let cond = Condition { theta: PI / 2.0, scale: 0.5, reflection: -1 };
-    assert!(compose::apply_condition(&cond, &rho_x, &rot, &sc, &x, &mut out));
+    let cond = Condition {
+        theta: PI / 2.0,
+        scale: 0.5,
+        reflection: -1,
+    };
+    assert!(compose::apply_condition(
+        &cond, &rho_x, &rot, &sc, &x, &mut out
+    ));
     // λx = (5, .5, 5, −.5); R(90°) → (−.5, 5, .5, 5); swap with P_X = diag(1, −1) → (.5, −5, −.5, −5).
     let want = [0.5, -5.0, -0.5, -5.0];
     for i in 0..4 {
         assert!((out[i] - want[i]).abs() < 1e-12, "{out:?}");
     }
     assert!(Condition::IDENTITY.validate().is_ok());
-    assert!(Condition { theta: 0.0, scale: 0.0, reflection: 1 }.validate().unwrap_err().contains("scale"));
-    assert!(Condition { theta: 0.0, scale: 1.0, reflection: 3 }.validate().unwrap_err().contains("reflection"));
-    assert!(Condition { theta: f64::NAN, scale: 1.0, reflection: 1 }.validate().is_err());
+    assert!(Condition {
+        theta: 0.0,
+        scale: 0.0,
+        reflection: 1
+    }
+    .validate()
+    .unwrap_err()
+    .contains("scale"));
+    assert!(Condition {
+        theta: 0.0,
+        scale: 1.0,
+        reflection: 3
+    }
+    .validate()
+    .unwrap_err()
+    .contains("reflection"));
+    assert!(Condition {
+        theta: f64::NAN,
+        scale: 1.0,
+        reflection: 1
+    }
+    .validate()
+    .is_err());
 }
 
 #[test]
@@ -313,12 +442,31 @@ fn lifted_rotation_on_rby1_is_equivariant() {
     let Some(robot) = common::rby1() else { return };
     let k = &robot.kinematics;
     // SO(2) about the vertical axis of the torso frame, on both hands' positions.
-    let r = AffineAction::new("R", LieGroupSpec::So2 { axis: Some([0.0, 0.0, 1.0]) }, 3, 2, None).unwrap();
+    let r = AffineAction::new(
+        "R",
+        LieGroupSpec::So2 {
+            axis: Some([0.0, 0.0, 1.0]),
+        },
+        3,
+        2,
+        None,
+    )
+    .unwrap();
     let lifted = LiftedAction::new(k, &r, FlowSettings::default()).unwrap();
     let mut ws = lifted.workspace();
     // A comfortable bimanual posture: elbows bent, hands in front of the torso.
     let arm = [0.3, 0.4, 0.0, -1.6, 0.0, 0.6, 0.0];
-    let q: Vec<f64> = arm.iter().copied().chain(arm.iter().enumerate().map(|(i, v)| if [1, 2, 4, 6].contains(&i) { -v } else { *v })).collect();
-    let e = lifted.equivariance_residual(&[FRAC_PI_6 / 3.0], &q, &mut ws).unwrap();
+    let q: Vec<f64> = arm
+        .iter()
+        .copied()
+        .chain(
+            arm.iter()
+                .enumerate()
+                .map(|(i, v)| if [1, 2, 4, 6].contains(&i) { -v } else { *v }),
+        )
+        .collect();
+    let e = lifted
+        .equivariance_residual(&[FRAC_PI_6 / 3.0], &q, &mut ws)
+        .unwrap();
     assert!(e < 1e-6, "RB-Y1 lifted rotation residual {e:e} m");
 }

@@ -42,7 +42,11 @@ fn default_max_steps() -> usize {
 
 impl Default for FlowSettings {
     fn default() -> Self {
-        Self { rtol: default_rtol(), atol: default_atol(), max_steps: default_max_steps() }
+        Self {
+            rtol: default_rtol(),
+            atol: default_atol(),
+            max_steps: default_max_steps(),
+        }
     }
 }
 
@@ -50,7 +54,10 @@ impl FlowSettings {
     /// Checks that tolerances are positive and finite.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.rtol > 0.0 && self.rtol.is_finite() && self.atol > 0.0 && self.atol.is_finite()) {
-            return Err(format!("flow tolerances rtol={} atol={} must be positive", self.rtol, self.atol));
+            return Err(format!(
+                "flow tolerances rtol={} atol={} must be positive",
+                self.rtol, self.atol
+            ));
         }
         if self.max_steps == 0 {
             return Err("flow max_steps must be positive".into());
@@ -126,9 +133,30 @@ const A: [[f64; 6]; 7] = [
     [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
     [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
-    [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
-    [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
-    [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
+    [
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+        0.0,
+        0.0,
+    ],
+    [
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+        0.0,
+    ],
+    [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
 ];
 const E: [f64; 7] = [
     71.0 / 57600.0,
@@ -155,7 +183,10 @@ pub fn integrate(
     ws.y.copy_from_slice(y0);
     if t == 0.0 {
         out.copy_from_slice(y0);
-        return FlowStatus::Done { steps: 0, rejected: 0 };
+        return FlowStatus::Done {
+            steps: 0,
+            rejected: 0,
+        };
     }
     let dir = t.signum();
     let total = t.abs();
@@ -176,7 +207,11 @@ pub fn integrate(
     };
     let d0 = norm(&ws.y, &ws.y);
     let d1 = norm(&ws.k[0], &ws.y);
-    let mut h = if d0 < 1e-5 || d1 < 1e-5 { 1e-6 } else { 0.01 * d0 / d1 };
+    let mut h = if d0 < 1e-5 || d1 < 1e-5 {
+        1e-6
+    } else {
+        0.01 * d0 / d1
+    };
     h = h.min(total).max(total * 1e-12);
     let mut attempts = 0;
     while s < total {
@@ -240,7 +275,11 @@ pub fn integrate(
             ws.y.copy_from_slice(&ws.y5);
             let (first, rest) = ws.k.split_at_mut(1);
             first[0].copy_from_slice(&rest[5]);
-            h *= if rejected > 0 && err > 0.5 { fac.min(1.0) } else { fac };
+            h *= if rejected > 0 && err > 0.5 {
+                fac.min(1.0)
+            } else {
+                fac
+            };
         } else {
             rejected += 1;
             h *= fac.min(1.0);
@@ -265,7 +304,11 @@ impl<'a> VariationalField<'a> {
     /// Wraps `field` with central-difference step `h` (relative to the state norm).
     pub fn new(field: &'a dyn VectorField, h: f64) -> Self {
         let d = field.dim();
-        Self { field, h, scratch: std::cell::RefCell::new([vec![0.0; d], vec![0.0; d], vec![0.0; d]]) }
+        Self {
+            field,
+            h,
+            scratch: std::cell::RefCell::new([vec![0.0; d], vec![0.0; d], vec![0.0; d]]),
+        }
     }
 }
 
@@ -321,12 +364,32 @@ mod tests {
         });
         let mut ws = FlowWorkspace::new(2);
         let mut out = [0.0; 2];
-        let st = integrate(&rot, 1.0, &[2.0, 0.0], &mut out, &FlowSettings::default(), &mut ws);
+        let st = integrate(
+            &rot,
+            1.0,
+            &[2.0, 0.0],
+            &mut out,
+            &FlowSettings::default(),
+            &mut ws,
+        );
         assert!(st.is_done());
-        assert!((out[0] - 2.0 * 1f64.cos()).abs() < 1e-9 && (out[1] - 2.0 * 1f64.sin()).abs() < 1e-9, "{out:?}");
-        let st = integrate(&rot, -std::f64::consts::TAU, &[2.0, 0.0], &mut out, &FlowSettings::default(), &mut ws);
+        assert!(
+            (out[0] - 2.0 * 1f64.cos()).abs() < 1e-9 && (out[1] - 2.0 * 1f64.sin()).abs() < 1e-9,
+            "{out:?}"
+        );
+        let st = integrate(
+            &rot,
+            -std::f64::consts::TAU,
+            &[2.0, 0.0],
+            &mut out,
+            &FlowSettings::default(),
+            &mut ws,
+        );
         assert!(st.is_done());
-        assert!((out[0] - 2.0).abs() < 1e-8 && out[1].abs() < 1e-8, "{out:?}");
+        assert!(
+            (out[0] - 2.0).abs() < 1e-8 && out[1].abs() < 1e-8,
+            "{out:?}"
+        );
     }
 
     #[test]
@@ -336,7 +399,14 @@ mod tests {
         let var = VariationalField::new(&f, 1e-6);
         let mut ws = FlowWorkspace::new(2);
         let mut out = [0.0; 2];
-        let st = integrate(&var, 0.5, &[1.0, 1.0], &mut out, &FlowSettings::default(), &mut ws);
+        let st = integrate(
+            &var,
+            0.5,
+            &[1.0, 1.0],
+            &mut out,
+            &FlowSettings::default(),
+            &mut ws,
+        );
         assert!(st.is_done());
         assert!((out[0] - 2.0).abs() < 1e-8, "{out:?}");
         assert!((out[1] - 4.0).abs() < 1e-6, "{out:?}");
@@ -356,7 +426,14 @@ mod tests {
         }
         let mut ws = FlowWorkspace::new(1);
         let mut out = [0.0];
-        let st = integrate(&Wall(&f), 1.0, &[0.0], &mut out, &FlowSettings::default(), &mut ws);
+        let st = integrate(
+            &Wall(&f),
+            1.0,
+            &[0.0],
+            &mut out,
+            &FlowSettings::default(),
+            &mut ws,
+        );
         match st {
             FlowStatus::FieldUndefined { t } => assert!(t <= 0.5 && t > 0.4, "{t}"),
             other => panic!("{other:?}"),

@@ -25,14 +25,18 @@ use std::cell::RefCell;
 use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
 use crate::symmetry::field::{lie_bracket, VectorField};
 use crate::symmetry::lie::AffineAction;
-use crate::symmetry::transfer::flow::{integrate, FlowSettings, FlowStatus, FlowWorkspace, VariationalField};
+use crate::symmetry::transfer::flow::{
+    integrate, FlowSettings, FlowStatus, FlowWorkspace, VariationalField,
+};
 
 /// Errors of the lifted action: the flow could not be carried to the requested element.
 #[derive(Debug, Clone, thiserror::Error)]
 #[non_exhaustive]
 pub enum LiftError {
     /// The flow reached a (near-)singular configuration, where `J⁺` is undefined (A3 fails).
-    #[error("lifting `{symmetry}`: kinematic singularity reached at flow time {t:.6} of {total:.6}")]
+    #[error(
+        "lifting `{symmetry}`: kinematic singularity reached at flow time {t:.6} of {total:.6}"
+    )]
     Singular {
         /// Symmetry name.
         symmetry: String,
@@ -70,9 +74,17 @@ pub struct LiftedField<'a, F: VectorField> {
 impl<'a, F: VectorField> LiftedField<'a, F> {
     /// Lifts `task` (a field on `X`, `task.dim() == kin.task_dim()`) through `kin`.
     pub fn new(kin: &'a Kinematics, task: F) -> Self {
-        assert_eq!(task.dim(), kin.task_dim(), "task field dimension differs from dim X");
+        assert_eq!(
+            task.dim(),
+            kin.task_dim(),
+            "task field dimension differs from dim X"
+        );
         let ws = kin.workspace();
-        Self { kin, task, scratch: RefCell::new((ws, vec![0.0; kin.task_dim()])) }
+        Self {
+            kin,
+            task,
+            scratch: RefCell::new((ws, vec![0.0; kin.task_dim()])),
+        }
     }
 
     /// The task-space field being lifted.
@@ -123,7 +135,11 @@ pub struct LiftedAction<'a> {
 
 impl<'a> LiftedAction<'a> {
     /// Lifts `action` (acting on `X = R^{kin.task_dim()}`) through `kin`.
-    pub fn new(kin: &'a Kinematics, action: &'a AffineAction, settings: FlowSettings) -> Result<Self, String> {
+    pub fn new(
+        kin: &'a Kinematics,
+        action: &'a AffineAction,
+        settings: FlowSettings,
+    ) -> Result<Self, String> {
         settings.validate()?;
         if action.dim() != kin.task_dim() {
             return Err(format!(
@@ -133,7 +149,12 @@ impl<'a> LiftedAction<'a> {
                 kin.task_dim()
             ));
         }
-        Ok(Self { kin, action, settings, fd_step: 1e-6 })
+        Ok(Self {
+            kin,
+            action,
+            settings,
+            fd_step: 1e-6,
+        })
     }
 
     /// The task-space action being lifted.
@@ -160,18 +181,29 @@ impl<'a> LiftedAction<'a> {
     fn outcome(&self, status: FlowStatus) -> Result<FlowStatus, LiftError> {
         match status {
             FlowStatus::Done { .. } => Ok(status),
-            FlowStatus::FieldUndefined { t } if t == 0.0 => {
-                Err(LiftError::BadStart { symmetry: self.action.name.clone() })
-            }
-            FlowStatus::FieldUndefined { t } => {
-                Err(LiftError::Singular { symmetry: self.action.name.clone(), t, total: 1.0 })
-            }
-            other => Err(LiftError::Integration { symmetry: self.action.name.clone(), status: other }),
+            FlowStatus::FieldUndefined { t: 0.0 } => Err(LiftError::BadStart {
+                symmetry: self.action.name.clone(),
+            }),
+            FlowStatus::FieldUndefined { t } => Err(LiftError::Singular {
+                symmetry: self.action.name.clone(),
+                t,
+                total: 1.0,
+            }),
+            other => Err(LiftError::Integration {
+                symmetry: self.action.name.clone(),
+                status: other,
+            }),
         }
     }
 
     /// `q_out = Φ_Q(exp(ξ), q)`: the flow of `X_Q^ξ` for unit time.
-    pub fn act(&self, xi: &[f64], q: &[f64], q_out: &mut [f64], ws: &mut LiftWorkspace) -> Result<FlowStatus, LiftError> {
+    pub fn act(
+        &self,
+        xi: &[f64],
+        q: &[f64],
+        q_out: &mut [f64],
+        ws: &mut LiftWorkspace,
+    ) -> Result<FlowStatus, LiftError> {
         let field = LiftedField::new(self.kin, self.action.generator(xi));
         let st = integrate(&field, 1.0, q, q_out, &self.settings, &mut ws.flow);
         self.outcome(st)
@@ -200,7 +232,12 @@ impl<'a> LiftedAction<'a> {
     }
 
     /// Equivariance residual `‖f(Φ_Q(g, q)) − Φ_X(g, f(q))‖` (eq. 19) for `g = exp(ξ)`.
-    pub fn equivariance_residual(&self, xi: &[f64], q: &[f64], ws: &mut LiftWorkspace) -> Result<f64, LiftError> {
+    pub fn equivariance_residual(
+        &self,
+        xi: &[f64],
+        q: &[f64],
+        ws: &mut LiftWorkspace,
+    ) -> Result<f64, LiftError> {
         let n = self.kin.dof();
         let m = self.kin.task_dim();
         let mut q_out = vec![0.0; n];
@@ -210,7 +247,12 @@ impl<'a> LiftedAction<'a> {
         let x1 = self.kin.forward(&q_out, &mut kws).clone();
         let mut gx = vec![0.0; m];
         self.action.act(xi, x0.as_slice(), &mut gx);
-        Ok(x1.iter().zip(&gx).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt())
+        Ok(x1
+            .iter()
+            .zip(&gx)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt())
     }
 }
 
@@ -242,8 +284,15 @@ pub fn bracket_condition(
     let la = LiftedField::new(kin, a);
     let lb = LiftedField::new(kin, b);
     let mut ws = kin.workspace();
-    let (mut bq, mut bx, mut lifted, mut jb) = (vec![0.0; n], vec![0.0; m], vec![0.0; n], vec![0.0; m]);
-    let mut out = BracketReport { vertical: 0.0, vertical_relative: 0.0, residual: 0.0, horizontal_mismatch: 0.0, samples: 0 };
+    let (mut bq, mut bx, mut lifted, mut jb) =
+        (vec![0.0; n], vec![0.0; m], vec![0.0; n], vec![0.0; m]);
+    let mut out = BracketReport {
+        vertical: 0.0,
+        vertical_relative: 0.0,
+        residual: 0.0,
+        horizontal_mismatch: 0.0,
+        samples: 0,
+    };
     let mut max_norm: f64 = 0.0;
     for q in configs {
         if !lie_bracket(&la, &lb, q, h, &mut bq) {
@@ -264,16 +313,35 @@ pub fn bracket_condition(
         }
         let mut horiz = vec![0.0; n];
         kin.solve(&mut ws, &jb, &mut horiz);
-        let vert = bq.iter().zip(&horiz).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
-        let resid = bq.iter().zip(&lifted).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
-        let hm = jb.iter().zip(&bx).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+        let vert = bq
+            .iter()
+            .zip(&horiz)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt();
+        let resid = bq
+            .iter()
+            .zip(&lifted)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt();
+        let hm = jb
+            .iter()
+            .zip(&bx)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt();
         max_norm = max_norm.max(bq.iter().map(|v| v * v).sum::<f64>().sqrt());
         out.vertical = out.vertical.max(vert);
         out.residual = out.residual.max(resid);
         out.horizontal_mismatch = out.horizontal_mismatch.max(hm);
         out.samples += 1;
     }
-    out.vertical_relative = if max_norm > 0.0 { out.vertical / max_norm } else { out.vertical };
+    out.vertical_relative = if max_norm > 0.0 {
+        out.vertical / max_norm
+    } else {
+        out.vertical
+    };
     out
 }
 
@@ -295,7 +363,11 @@ pub fn periodicity_drift(
         .map(|((a, b), l)| {
             let d = a - b;
             // Joints with a span of at least 2π are angles on a circle: wrap.
-            let d = if l.upper - l.lower >= std::f64::consts::TAU - 1e-9 { wrap_angle(d) } else { d };
+            let d = if l.upper - l.lower >= std::f64::consts::TAU - 1e-9 {
+                wrap_angle(d)
+            } else {
+                d
+            };
             d * d
         })
         .sum::<f64>()
