@@ -11,6 +11,7 @@
 //! - [`kinematics`]: URDF model, FK, Jacobian, metric pseudo-inverse.
 //! - [`config`]: TOML configuration, validated once at startup.
 //! - [`symmetry`]: groups, actions, transfer (descend/lift) and composition.
+//! - [`safety`]: the QP joint-limit safety filter (Clarabel).
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
@@ -18,4 +19,5 @@
 
 pub mod config;
 pub mod kinematics;
+pub mod safety;
 pub mod symmetry;

@@ -31,6 +31,15 @@ impl<F: VectorField + ?Sized> VectorField for &F {
     }
 }
 
+impl<F: VectorField + ?Sized> VectorField for Box<F> {
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    fn eval(&self, p: &[f64], out: &mut [f64]) -> bool {
+        (**self).eval(p, out)
+    }
+}
+
 /// A vector field given by a closure (setup, tests, examples).
 pub struct FnField<F> {
     dim: usize,

@@ -21,6 +21,47 @@ use serde::{Deserialize, Serialize};
 
 use super::field::VectorField;
 
+/// A Lie group acting on task space, seen through its exponential coordinates: what the
+/// lift (eqs. 17–18) and the composition checks (eqs. 19–22) need from any continuous
+/// task-space symmetry (affine isometries and scalings here, task-induced ones from costs).
+pub trait TaskGroupAction {
+    /// Name from configuration.
+    fn name(&self) -> &str;
+    /// Dimension of the task space acted on.
+    fn dim(&self) -> usize;
+    /// Dimension of the Lie algebra (exponential coordinates).
+    fn algebra_dim(&self) -> usize;
+    /// The infinitesimal generator `X_ξ` (eq. 2) as a vector field on task space.
+    fn generator_field(&self, xi: &[f64]) -> Box<dyn VectorField + '_>;
+    /// `out = Φ(exp(ξ), x)`; `false` where the action cannot be evaluated.
+    fn act_on(&self, xi: &[f64], x: &[f64], out: &mut [f64]) -> bool;
+    /// `out = dΦ_{exp ξ}|_x v`; `false` where it cannot be evaluated.
+    fn differential_on(&self, xi: &[f64], x: &[f64], v: &[f64], out: &mut [f64]) -> bool;
+}
+
+impl TaskGroupAction for AffineAction {
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn dim(&self) -> usize {
+        AffineAction::dim(self)
+    }
+    fn algebra_dim(&self) -> usize {
+        AffineAction::algebra_dim(self)
+    }
+    fn generator_field(&self, xi: &[f64]) -> Box<dyn VectorField + '_> {
+        Box::new(self.generator(xi))
+    }
+    fn act_on(&self, xi: &[f64], x: &[f64], out: &mut [f64]) -> bool {
+        self.act(xi, x, out);
+        true
+    }
+    fn differential_on(&self, xi: &[f64], _x: &[f64], v: &[f64], out: &mut [f64]) -> bool {
+        self.differential(xi, v, out);
+        true
+    }
+}
+
 /// Which Lie group, with its parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]

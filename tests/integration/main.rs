@@ -5,4 +5,5 @@ mod common;
 mod descend;
 mod kinematics;
 mod lift_compose;
+mod safety;
 mod task_induced;

@@ -24,7 +24,7 @@ use std::cell::RefCell;
 
 use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
 use crate::symmetry::field::{lie_bracket, VectorField};
-use crate::symmetry::lie::AffineAction;
+use crate::symmetry::lie::TaskGroupAction;
 use crate::symmetry::transfer::flow::{
     integrate, FlowSettings, FlowStatus, FlowWorkspace, VariationalField,
 };
@@ -125,10 +125,10 @@ pub struct LiftWorkspace {
     y1: Vec<f64>,
 }
 
-/// Lifted action `Φ_Q(exp(ξ), q)` of an affine task-space Lie group action (eq. 18).
+/// Lifted action `Φ_Q(exp(ξ), q)` of a task-space Lie group action (eq. 18).
 pub struct LiftedAction<'a> {
     kin: &'a Kinematics,
-    action: &'a AffineAction,
+    action: &'a dyn TaskGroupAction,
     settings: FlowSettings,
     fd_step: f64,
 }
@@ -137,14 +137,14 @@ impl<'a> LiftedAction<'a> {
     /// Lifts `action` (acting on `X = R^{kin.task_dim()}`) through `kin`.
     pub fn new(
         kin: &'a Kinematics,
-        action: &'a AffineAction,
+        action: &'a dyn TaskGroupAction,
         settings: FlowSettings,
     ) -> Result<Self, String> {
         settings.validate()?;
         if action.dim() != kin.task_dim() {
             return Err(format!(
                 "symmetry `{}` acts on R^{} but the robot's task space is R^{}",
-                action.name,
+                action.name(),
                 action.dim(),
                 kin.task_dim()
             ));
@@ -158,7 +158,7 @@ impl<'a> LiftedAction<'a> {
     }
 
     /// The task-space action being lifted.
-    pub fn task_action(&self) -> &AffineAction {
+    pub fn task_action(&self) -> &dyn TaskGroupAction {
         self.action
     }
 
@@ -182,15 +182,15 @@ impl<'a> LiftedAction<'a> {
         match status {
             FlowStatus::Done { .. } => Ok(status),
             FlowStatus::FieldUndefined { t: 0.0 } => Err(LiftError::BadStart {
-                symmetry: self.action.name.clone(),
+                symmetry: self.action.name().to_string(),
             }),
             FlowStatus::FieldUndefined { t } => Err(LiftError::Singular {
-                symmetry: self.action.name.clone(),
+                symmetry: self.action.name().to_string(),
                 t,
                 total: 1.0,
             }),
             other => Err(LiftError::Integration {
-                symmetry: self.action.name.clone(),
+                symmetry: self.action.name().to_string(),
                 status: other,
             }),
         }
@@ -204,7 +204,7 @@ impl<'a> LiftedAction<'a> {
         q_out: &mut [f64],
         ws: &mut LiftWorkspace,
     ) -> Result<FlowStatus, LiftError> {
-        let field = LiftedField::new(self.kin, self.action.generator(xi));
+        let field = LiftedField::new(self.kin, self.action.generator_field(xi));
         let st = integrate(&field, 1.0, q, q_out, &self.settings, &mut ws.flow);
         self.outcome(st)
     }
@@ -220,7 +220,7 @@ impl<'a> LiftedAction<'a> {
         ws: &mut LiftWorkspace,
     ) -> Result<FlowStatus, LiftError> {
         let n = self.kin.dof();
-        let field = LiftedField::new(self.kin, self.action.generator(xi));
+        let field = LiftedField::new(self.kin, self.action.generator_field(xi));
         let var = VariationalField::new(&field, self.fd_step);
         ws.y0[..n].copy_from_slice(q);
         ws.y0[n..].copy_from_slice(qdot);
@@ -246,7 +246,9 @@ impl<'a> LiftedAction<'a> {
         let x0 = self.kin.forward(q, &mut kws).clone();
         let x1 = self.kin.forward(&q_out, &mut kws).clone();
         let mut gx = vec![0.0; m];
-        self.action.act(xi, x0.as_slice(), &mut gx);
+        if !self.action.act_on(xi, x0.as_slice(), &mut gx) {
+            return Ok(f64::INFINITY);
+        }
         Ok(x1
             .iter()
             .zip(&gx)
