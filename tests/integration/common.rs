@@ -24,7 +24,10 @@ pub fn rby1_urdf() -> Option<PathBuf> {
     if p.exists() {
         Some(p)
     } else {
-        eprintln!("SKIP: {} is absent (RB-Y1 tests need ../shared)", p.display());
+        eprintln!(
+            "SKIP: {} is absent (RB-Y1 tests need ../shared)",
+            p.display()
+        );
         None
     }
 }
@@ -36,7 +39,9 @@ pub fn load_config(name: &str) -> Config {
 
 /// The planar dual arm of the paper (always available: shipped in `urdf/`).
 pub fn planar() -> LoadedRobot {
-    load_config("planar_dual_arm.toml").load_robot().expect("planar robot loads")
+    load_config("planar_dual_arm.toml")
+        .load_robot()
+        .expect("planar robot loads")
 }
 
 /// RB-Y1 both arms, when the vendor URDF is present.
@@ -55,8 +60,16 @@ pub fn random_q(rng: &mut StdRng, limits: &[crossym::kinematics::JointLimits]) -
     limits
         .iter()
         .map(|l| {
-            let lo = if l.lower.is_finite() { l.lower } else { -std::f64::consts::PI };
-            let hi = if l.upper.is_finite() { l.upper } else { std::f64::consts::PI };
+            let lo = if l.lower.is_finite() {
+                l.lower
+            } else {
+                -std::f64::consts::PI
+            };
+            let hi = if l.upper.is_finite() {
+                l.upper
+            } else {
+                std::f64::consts::PI
+            };
             rng.random_range(lo..=hi)
         })
         .collect()
