@@ -9,7 +9,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::data::augmentation::AugmentationConfig;
+use crate::data::letters::LetterTaskConfig;
 use crate::kinematics::{ChainSpec, Kinematics, KinematicsError, KinematicsSettings, RobotModel};
+use crate::symmetry::spec::{CheckConfig, CompositionConfig, SymmetryConfig};
 
 /// Errors while reading or validating a configuration file.
 #[derive(Debug, thiserror::Error)]
@@ -114,6 +117,21 @@ pub struct Config {
     /// Pseudo-inverse settings (damping, metric, singularity threshold).
     #[serde(default)]
     pub kinematics: KinematicsSettings,
+    /// Symmetries of the task and robot (`[[symmetries]]`).
+    #[serde(default)]
+    pub symmetries: Vec<SymmetryConfig>,
+    /// How the symmetries are composed (`[composition]`).
+    #[serde(default)]
+    pub composition: CompositionConfig,
+    /// Where conditions are tested numerically (`[check]`).
+    #[serde(default)]
+    pub check: CheckConfig,
+    /// The letter task's demonstrations (`[letters]`).
+    #[serde(default)]
+    pub letters: Option<LetterTaskConfig>,
+    /// Augmentation grids (`[augmentation]`).
+    #[serde(default)]
+    pub augmentation: Option<AugmentationConfig>,
     /// Directory of the file, for resolving relative paths (not read from TOML).
     #[serde(skip)]
     pub base_dir: PathBuf,

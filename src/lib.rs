@@ -11,13 +11,18 @@
 //! - [`kinematics`]: URDF model, FK, Jacobian, metric pseudo-inverse.
 //! - [`config`]: TOML configuration, validated once at startup.
 //! - [`symmetry`]: groups, actions, transfer (descend/lift) and composition.
+//! - [`policy`]: the symmetry-conditioned policy `π(q, s) → q̇`: features, allocation-free
+//!   inference, CONDOR-style training (candle), safetensors + JSON persistence.
 //! - [`safety`]: the QP joint-limit safety filter (Clarabel).
+//! - [`data`]: LASA letter demonstrations (CSV or original MAT v5 files) and a MAT v5 reader.
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
 #![allow(clippy::needless_range_loop)]
 
 pub mod config;
+pub mod data;
 pub mod kinematics;
+pub mod policy;
 pub mod safety;
 pub mod symmetry;

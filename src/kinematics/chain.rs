@@ -290,3 +290,15 @@ impl Chain {
         ws.jacobian.fixed_rows::<3>(0).into_owned()
     }
 }
+
+impl ChainWorkspace {
+    /// World (base-frame) origin `p_i` of movable joint `i` after the last FK call (m).
+    pub fn joint_origin(&self, i: usize) -> Vector3<f64> {
+        self.origins[i]
+    }
+
+    /// World (base-frame) unit axis `z_i` of movable joint `i` after the last FK call.
+    pub fn joint_axis(&self, i: usize) -> Vector3<f64> {
+        self.axes[i]
+    }
+}

@@ -41,7 +41,14 @@ pub fn braking_bound(d: f64, a: f64, dt: f64) -> f64 {
 
 /// Computes the bounds of one joint. `q` and `u` must be finite (checked by the caller).
 #[inline]
-pub fn joint_bounds(l: &JointLimits, default_accel: f64, margin: f64, q: f64, u: f64, dt: f64) -> JointBounds {
+pub fn joint_bounds(
+    l: &JointLimits,
+    default_accel: f64,
+    margin: f64,
+    q: f64,
+    u: f64,
+    dt: f64,
+) -> JointBounds {
     let vmax = l.velocity;
     let a = l.acceleration.unwrap_or(default_accel);
     let (mut lo, mut hi) = (-vmax, vmax);
@@ -50,11 +57,19 @@ pub fn joint_bounds(l: &JointLimits, default_accel: f64, margin: f64, q: f64, u:
     let mut p_lo = f64::NEG_INFINITY;
     if l.upper.is_finite() {
         let d = l.upper - margin - q;
-        p_hi = if d >= 0.0 { braking_bound(d, a, dt) } else { -(vmax.min(a * dt).min(-d / dt)) };
+        p_hi = if d >= 0.0 {
+            braking_bound(d, a, dt)
+        } else {
+            -(vmax.min(a * dt).min(-d / dt))
+        };
     }
     if l.lower.is_finite() {
         let d = q - (l.lower + margin);
-        p_lo = if d >= 0.0 { -braking_bound(d, a, dt) } else { vmax.min(a * dt).min(-d / dt) };
+        p_lo = if d >= 0.0 {
+            -braking_bound(d, a, dt)
+        } else {
+            vmax.min(a * dt).min(-d / dt)
+        };
     }
     // A joint range narrower than twice the margin: hold still in the middle.
     if p_lo > p_hi {
@@ -83,7 +98,12 @@ pub fn joint_bounds(l: &JointLimits, default_accel: f64, margin: f64, q: f64, u:
         lo = lo.max(a_lo);
         hi = hi.min(a_hi);
     }
-    JointBounds { lo, hi, position_binding, accel_overridden }
+    JointBounds {
+        lo,
+        hi,
+        position_binding,
+        accel_overridden,
+    }
 }
 
 #[cfg(test)]
@@ -91,7 +111,13 @@ mod tests {
     use super::*;
 
     fn lim() -> JointLimits {
-        JointLimits { lower: -1.0, upper: 1.0, velocity: 2.0, effort: 1.0, acceleration: Some(10.0) }
+        JointLimits {
+            lower: -1.0,
+            upper: 1.0,
+            velocity: 2.0,
+            effort: 1.0,
+            acceleration: Some(10.0),
+        }
     }
 
     #[test]

@@ -19,7 +19,9 @@
 //! to the clamp of `v`, which always satisfies the box.
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus,
+};
 use nalgebra::DMatrix;
 
 use super::bounds::joint_bounds;
@@ -175,16 +177,28 @@ impl SafetyFilter {
             return Err(bad("dt", format!("{} must be positive", settings.dt)));
         }
         if !(settings.margin.is_finite() && settings.margin >= 0.0) {
-            return Err(bad("margin", format!("{} must be non-negative", settings.margin)));
+            return Err(bad(
+                "margin",
+                format!("{} must be non-negative", settings.margin),
+            ));
         }
         if !pos(settings.default_acceleration) {
-            return Err(bad("default_acceleration", format!("{} must be positive", settings.default_acceleration)));
+            return Err(bad(
+                "default_acceleration",
+                format!("{} must be positive", settings.default_acceleration),
+            ));
         }
         if !pos(settings.weight_epsilon) {
-            return Err(bad("weight_epsilon", format!("{} must be positive", settings.weight_epsilon)));
+            return Err(bad(
+                "weight_epsilon",
+                format!("{} must be positive", settings.weight_epsilon),
+            ));
         }
         if !pos(settings.barrier_gain) {
-            return Err(bad("barrier_gain", format!("{} must be positive", settings.barrier_gain)));
+            return Err(bad(
+                "barrier_gain",
+                format!("{} must be positive", settings.barrier_gain),
+            ));
         }
         if let Some(d) = settings.min_ee_distance {
             if !pos(d) {
@@ -194,7 +208,10 @@ impl SafetyFilter {
         if settings.max_iter == 0 {
             return Err(bad("max_iter", "must be positive".into()));
         }
-        if let Some(i) = limits.iter().position(|l| !(l.velocity.is_finite() && l.velocity > 0.0)) {
+        if let Some(i) = limits
+            .iter()
+            .position(|l| !(l.velocity.is_finite() && l.velocity > 0.0))
+        {
             return Err(SafetyError::NoVelocityLimit { index: i });
         }
         let n = limits.len();
@@ -206,7 +223,9 @@ impl SafetyFilter {
             rowval.extend(0..=j);
             colptr.push(rowval.len());
         }
-        let p_vals: Vec<f64> = (0..n).flat_map(|j| (0..=j).map(move |i| if i == j { 2.0 } else { 0.0 })).collect();
+        let p_vals: Vec<f64> = (0..n)
+            .flat_map(|j| (0..=j).map(move |i| if i == j { 2.0 } else { 0.0 }))
+            .collect();
         let p = CscMatrix::new(n, n, colptr, rowval, p_vals.clone());
         // A = [I; −I; −g]: per column rows j, n + j, and 2n (barrier).
         let m = 2 * n + br;
@@ -231,10 +250,16 @@ impl SafetyFilter {
             .input_sparse_dropzeros(false)
             .max_iter(settings.max_iter)
             .build()
-            .map_err(|e| SafetyError::Solver { message: format!("{e:?}") })?;
+            .map_err(|e| SafetyError::Solver {
+                message: format!("{e:?}"),
+            })?;
         let cones = [NonnegativeConeT(m)];
-        let solver = DefaultSolver::new(&p, &q_vec, &a, &b_vec, &cones, settings_c)
-            .map_err(|e| SafetyError::Solver { message: e.to_string() })?;
+        let solver =
+            DefaultSolver::new(&p, &q_vec, &a, &b_vec, &cones, settings_c).map_err(|e| {
+                SafetyError::Solver {
+                    message: e.to_string(),
+                }
+            })?;
         Ok(Self {
             n,
             limits: limits.to_vec(),
@@ -289,23 +314,44 @@ impl SafetyFilter {
         out: &mut [f64],
     ) -> SafetyReport {
         let n = self.n;
-        assert!(q.len() == n && v.len() == n && out.len() == n, "safety filter: wrong dimensions");
+        assert!(
+            q.len() == n && v.len() == n && out.len() == n,
+            "safety filter: wrong dimensions"
+        );
         let dt = self.settings.dt;
-        let mut report =
-            SafetyReport { status: SafetyStatus::Filtered, active: 0, accel_overridden: 0, policy_nonfinite: false, iterations: 0 };
+        let mut report = SafetyReport {
+            status: SafetyStatus::Filtered,
+            active: 0,
+            accel_overridden: 0,
+            policy_nonfinite: false,
+            iterations: 0,
+        };
         if q.iter().any(|x| !x.is_finite()) {
             // No position information: brake every joint toward zero within its acceleration limit.
             for i in 0..n {
-                let a = self.limits[i].acceleration.unwrap_or(self.settings.default_acceleration);
+                let a = self.limits[i]
+                    .acceleration
+                    .unwrap_or(self.settings.default_acceleration);
                 let u = self.last[i];
-                out[i] = if u > 0.0 { (u - a * dt).max(0.0) } else { (u + a * dt).min(0.0) };
+                out[i] = if u > 0.0 {
+                    (u - a * dt).max(0.0)
+                } else {
+                    (u + a * dt).min(0.0)
+                };
             }
             self.last.copy_from_slice(out);
             report.status = SafetyStatus::InvalidState;
             return report;
         }
         for i in 0..n {
-            let b = joint_bounds(&self.limits[i], self.settings.default_acceleration, self.settings.margin, q[i], self.last[i], dt);
+            let b = joint_bounds(
+                &self.limits[i],
+                self.settings.default_acceleration,
+                self.settings.margin,
+                q[i],
+                self.last[i],
+                dt,
+            );
             self.lo[i] = b.lo;
             self.hi[i] = b.hi;
             report.accel_overridden += u32::from(b.accel_overridden);
@@ -317,14 +363,23 @@ impl SafetyFilter {
             };
         }
         let barrier = barrier.filter(|b| {
-            self.barrier_rows == 1 && b.gradient.len() == n && b.value.is_finite() && b.gradient.iter().all(|g| g.is_finite())
+            self.barrier_rows == 1
+                && b.gradient.len() == n
+                && b.value.is_finite()
+                && b.gradient.iter().all(|g| g.is_finite())
         });
         let gamma = self.settings.barrier_gain;
         let barrier_ok = |x: &[f64]| match barrier {
             None => true,
-            Some(b) => b.gradient.iter().zip(x).map(|(g, x)| g * x).sum::<f64>() >= -gamma * b.value,
+            Some(b) => {
+                b.gradient.iter().zip(x).map(|(g, x)| g * x).sum::<f64>() >= -gamma * b.value
+            }
         };
-        let inside = self.v.iter().zip(self.lo.iter().zip(&self.hi)).all(|(x, (l, h))| x >= l && x <= h);
+        let inside = self
+            .v
+            .iter()
+            .zip(self.lo.iter().zip(&self.hi))
+            .all(|(x, (l, h))| x >= l && x <= h);
         if inside && barrier_ok(&self.v) {
             out.copy_from_slice(&self.v);
             self.last.copy_from_slice(out);
@@ -382,8 +437,10 @@ impl SafetyFilter {
             let solved = updated && {
                 self.solver.solve();
                 report.iterations = self.solver.info.iterations;
-                matches!(self.solver.solution.status, SolverStatus::Solved | SolverStatus::AlmostSolved)
-                    && self.solver.solution.x.iter().all(|x| x.is_finite())
+                matches!(
+                    self.solver.solution.status,
+                    SolverStatus::Solved | SolverStatus::AlmostSolved
+                ) && self.solver.solution.x.iter().all(|x| x.is_finite())
             };
             if solved {
                 for i in 0..n {
@@ -394,8 +451,11 @@ impl SafetyFilter {
                 report.status = SafetyStatus::Fallback;
             }
         }
-        report.active =
-            (0..n).filter(|&i| (out[i] - self.lo[i]).abs() <= 1e-12 || (out[i] - self.hi[i]).abs() <= 1e-12).count() as u32;
+        report.active = (0..n)
+            .filter(|&i| {
+                (out[i] - self.lo[i]).abs() <= 1e-12 || (out[i] - self.hi[i]).abs() <= 1e-12
+            })
+            .count() as u32;
         self.last.copy_from_slice(out);
         report
     }

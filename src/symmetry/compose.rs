@@ -76,6 +76,7 @@ pub fn bracket_residual(
     h: f64,
 ) -> f64 {
     let mut worst: f64 = 0.0;
+    let mut evaluated = 0;
     for p in samples {
         let d = p.len();
         let (mut b, mut xv, mut yv) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
@@ -87,31 +88,43 @@ pub fn bracket_residual(
                 }
                 // Brackets of fields scale like |X||Y|/|p|: normalise by that.
                 let scale = norm(&xv) * norm(&yv) / norm(p).max(1e-12) + 1e-300;
+                evaluated += 1;
                 worst = worst.max(norm(&b) / scale);
             }
         }
     }
-    worst
+    if evaluated == 0 {
+        f64::INFINITY
+    } else {
+        worst
+    }
 }
 
 /// Max relative commutation residual `‖Φ_1(Φ_2(p)) − Φ_2(Φ_1(p))‖ / ‖p‖` of two maps over samples (eq. 19).
-/// Maps return `false` where undefined; such samples are skipped.
+/// Maps return `false` where undefined; such samples are skipped, and when every sample is
+/// skipped the residual is `∞` (nothing was shown to commute).
 pub fn commutation_residual(
     a: &dyn Fn(&[f64], &mut [f64]) -> bool,
     b: &dyn Fn(&[f64], &mut [f64]) -> bool,
     samples: &[Vec<f64>],
 ) -> f64 {
     let mut worst: f64 = 0.0;
+    let mut evaluated = 0;
     for p in samples {
         let d = p.len();
         let (mut t, mut ab, mut ba) = (vec![0.0; d], vec![0.0; d], vec![0.0; d]);
         if !(b(p, &mut t) && a(&t, &mut ab) && a(p, &mut t) && b(&t, &mut ba)) {
             continue;
         }
+        evaluated += 1;
         let diff: Vec<f64> = ab.iter().zip(&ba).map(|(x, y)| x - y).collect();
         worst = worst.max(norm(&diff) / norm(p).max(1.0));
     }
-    worst
+    if evaluated == 0 {
+        f64::INFINITY
+    } else {
+        worst
+    }
 }
 
 /// Fits the automorphism `C` with `ρ X_k(ρ⁻¹ p) = Σ_l C_lk X_l(p)` over samples (eq. 22);
@@ -244,13 +257,74 @@ pub fn classify_lie_lie(
 ) -> Composition {
     let r = bracket_residual(xs, ys, samples, h);
     if r <= tol.commute {
-        Composition::Direct { residual: r }
+        return Composition::Direct { residual: r };
+    }
+    // Semi-direct (eq. 22) between Lie groups: the inner algebra is an ideal, i.e. every
+    // bracket [X_i, Y_j] stays in span{Y} (so exp(ad) maps G_Y to itself, e.g.
+    // SE(2) = T(2) ⋊ SO(2)). The automorphism's generator is ad restricted to g_Y.
+    let (c, resid) = fit_ideal(xs, ys, samples, h);
+    if resid <= tol.automorphism {
+        Composition::SemiDirect {
+            automorphism: c,
+            residual: resid,
+            commutation: r,
+        }
     } else {
         Composition::Incompatible {
             commutation: r,
-            automorphism: f64::INFINITY,
+            automorphism: resid,
         }
     }
+}
+
+/// Fits `[X_i, Y_j] = Σ_l C^{(i)}_{lj} Y_l` over samples; returns the stacked `C^{(i)}`
+/// (`k_x·k_y × k_y`, block `i` is `ad_{X_i}` on `span{Y}`) and the worst relative residual.
+fn fit_ideal(
+    xs: &[&dyn VectorField],
+    ys: &[&dyn VectorField],
+    samples: &[Vec<f64>],
+    h: f64,
+) -> (DMatrix<f64>, f64) {
+    let ky = ys.len();
+    let mut blocks = DMatrix::zeros(xs.len() * ky, ky);
+    let mut worst: f64 = 0.0;
+    for (i, x) in xs.iter().enumerate() {
+        let mut a_rows: Vec<f64> = Vec::new();
+        let mut b_rows: Vec<f64> = Vec::new();
+        let mut rows = 0;
+        for p in samples {
+            let d = p.len();
+            let mut yv = vec![vec![0.0; d]; ky];
+            let mut br = vec![vec![0.0; d]; ky];
+            let ok = ys
+                .iter()
+                .enumerate()
+                .all(|(l, y)| y.eval(p, &mut yv[l]) && lie_bracket(*x, *y, p, h, &mut br[l]));
+            if !ok {
+                continue;
+            }
+            for r in 0..d {
+                a_rows.extend((0..ky).map(|l| yv[l][r]));
+                b_rows.extend((0..ky).map(|l| br[l][r]));
+            }
+            rows += d;
+        }
+        if rows == 0 {
+            return (blocks, f64::INFINITY);
+        }
+        let a = DMatrix::from_row_slice(rows, ky, &a_rows);
+        let b = DMatrix::from_row_slice(rows, ky, &b_rows);
+        let c = a
+            .clone()
+            .svd(true, true)
+            .solve(&b, 1e-12)
+            .unwrap_or_else(|_| DMatrix::zeros(ky, ky));
+        let resid = &a * &c - &b;
+        let scale = b.norm().max(a.norm() * 1e-300).max(1e-300);
+        worst = worst.max(resid.norm() / scale);
+        blocks.view_mut((i * ky, 0), (ky, ky)).copy_from(&c);
+    }
+    (blocks, worst)
 }
 
 /// Decides how two finite groups compose: direct iff their generators commute.

@@ -24,7 +24,7 @@ use super::field::VectorField;
 /// A Lie group acting on task space, seen through its exponential coordinates: what the
 /// lift (eqs. 17–18) and the composition checks (eqs. 19–22) need from any continuous
 /// task-space symmetry (affine isometries and scalings here, task-induced ones from costs).
-pub trait TaskGroupAction {
+pub trait TaskGroupAction: Send + Sync {
     /// Name from configuration.
     fn name(&self) -> &str;
     /// Dimension of the task space acted on.

@@ -470,3 +470,66 @@ fn lifted_rotation_on_rby1_is_equivariant() {
         .unwrap();
     assert!(e < 1e-6, "RB-Y1 lifted rotation residual {e:e} m");
 }
+
+#[test]
+fn lie_pairs_semi_direct_when_one_algebra_is_an_ideal() {
+    // SE(2) = T(2) ⋊ SO(2): [rotation, translation] is a translation, so T(2) is an ideal.
+    let r = AffineAction::new("R", LieGroupSpec::So2 { axis: None }, 2, 1, None).unwrap();
+    let t = AffineAction::new(
+        "T",
+        LieGroupSpec::Translation { directions: vec![] },
+        2,
+        1,
+        None,
+    )
+    .unwrap();
+    let mut rng = common::rng(40);
+    let xs: Vec<Vec<f64>> = (0..10)
+        .map(|_| (0..2).map(|_| rng.random_range(-3.0..3.0)).collect())
+        .collect();
+    let rg = r.basis_generator(0);
+    let (t0, t1) = (t.basis_generator(0), t.basis_generator(1));
+    let c = compose::classify_lie_lie(
+        &[&rg],
+        &[&t0, &t1],
+        &xs,
+        DEFAULT_FD_STEP,
+        ComposeTolerance::default(),
+    );
+    match &c {
+        // ad_Ω on span{∂x, ∂y} is the rotation generator itself: [[0, −1], [1, 0]] up to sign convention.
+        Composition::SemiDirect {
+            automorphism,
+            residual,
+            ..
+        } => {
+            assert!(*residual < 1e-8, "{c:?}");
+            assert!(
+                (automorphism[(0, 1)].abs() - 1.0).abs() < 1e-6
+                    && (automorphism[(1, 0)].abs() - 1.0).abs() < 1e-6,
+                "{automorphism}"
+            );
+            assert!(automorphism[(0, 0)].abs() < 1e-6 && automorphism[(1, 1)].abs() < 1e-6);
+        }
+        other => panic!("expected semi-direct, got {other:?}"),
+    }
+    // Two rotations about different centers: their bracket is a translation, in neither
+    // algebra: incompatible.
+    let r2 = AffineAction::new(
+        "R2",
+        LieGroupSpec::So2 { axis: None },
+        2,
+        1,
+        Some(&[1.0, 0.0]),
+    )
+    .unwrap();
+    let g2 = r2.basis_generator(0);
+    let c = compose::classify_lie_lie(
+        &[&rg],
+        &[&g2],
+        &xs,
+        DEFAULT_FD_STEP,
+        ComposeTolerance::default(),
+    );
+    assert!(matches!(c, Composition::Incompatible { .. }), "{c:?}");
+}

@@ -1,9 +1,12 @@
 //! The one integration-test binary (ripgrep style): shared fixtures in `common`,
 //! one module per concept.
 
+mod augmentation;
 mod common;
+mod data;
 mod descend;
 mod kinematics;
 mod lift_compose;
+mod policy;
 mod safety;
 mod task_induced;

@@ -263,7 +263,8 @@ impl<'a> LiftedAction<'a> {
 pub struct BracketReport {
     /// Max norm of the vertical component `N [X_Q^ξ, X_Q^ζ]` (`N = I − J⁺J`), in rad per unit time².
     pub vertical: f64,
-    /// The same relative to `max ‖[X_Q^ξ, X_Q^ζ]‖` (or absolute if that is 0).
+    /// The same relative to `max ‖X_Q^ξ‖ · max ‖X_Q^ζ‖` (a bracket scales like the product
+    /// of the fields per radian), so that it does not depend on the fields' magnitudes.
     pub vertical_relative: f64,
     /// Max `‖[X_Q^ξ, X_Q^ζ] − X_Q^{[ξ,ζ]}‖` with the task bracket lifted (eq. 16 residual).
     pub residual: f64,
@@ -295,8 +296,13 @@ pub fn bracket_condition(
         horizontal_mismatch: 0.0,
         samples: 0,
     };
-    let mut max_norm: f64 = 0.0;
+    let (mut max_a, mut max_b): (f64, f64) = (0.0, 0.0);
+    let (mut va, mut vb) = (vec![0.0; n], vec![0.0; n]);
     for q in configs {
+        if la.eval(q, &mut va) && lb.eval(q, &mut vb) {
+            max_a = max_a.max(va.iter().map(|v| v * v).sum::<f64>().sqrt());
+            max_b = max_b.max(vb.iter().map(|v| v * v).sum::<f64>().sqrt());
+        }
         if !lie_bracket(&la, &lb, q, h, &mut bq) {
             continue;
         }
@@ -333,14 +339,14 @@ pub fn bracket_condition(
             .map(|(x, y)| (x - y) * (x - y))
             .sum::<f64>()
             .sqrt();
-        max_norm = max_norm.max(bq.iter().map(|v| v * v).sum::<f64>().sqrt());
         out.vertical = out.vertical.max(vert);
         out.residual = out.residual.max(resid);
         out.horizontal_mismatch = out.horizontal_mismatch.max(hm);
         out.samples += 1;
     }
-    out.vertical_relative = if max_norm > 0.0 {
-        out.vertical / max_norm
+    let scale = max_a * max_b;
+    out.vertical_relative = if scale > 0.0 {
+        out.vertical / scale
     } else {
         out.vertical
     };

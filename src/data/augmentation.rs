@@ -1,0 +1,491 @@
+//! Data augmentation with the composed group `G_MRT = (SO(2) × S) ⋊ C2` acting in `Q`
+//! (paper Sec. VI-A; eqs. 18, 23).
+//!
+//! Every sample `(q, q̇)` of a joint-space demonstration is mapped by
+//!
+//! `q' = ρ(σ) Φ_R(θ, Φ_S(ln λ, q))`,   `q̇' = ρ(σ) dΦ_R dΦ_S q̇`   (eq. 23, paper order)
+//!
+//! with `Φ_R`, `Φ_S` the horizontally lifted rotation and scaling (flows of
+//! `J⁺ X_X`, eq. 18) and `ρ(σ)` the morphological arm swap. The differentials come from the
+//! variational equation integrated with the flow. One flow per sample covers a whole
+//! rotation grid: `Φ_R(θ_{k+1}) = Φ_R(Δθ) ∘ Φ_R(θ_k)` (a one-parameter group), stepping out
+//! from 0 in both directions. A transformed trajectory is kept only if it is feasible:
+//! no singularity along any flow and every sample inside the joint limits; dropped ones are
+//! counted with their reason. Sub-groups (`G_R`, `G_RT`, the identity) are the same code
+//! with smaller grids.
+
+use serde::{Deserialize, Serialize};
+
+use super::letters::JointTrajectory;
+use crate::kinematics::Kinematics;
+use crate::symmetry::check::BuiltSymmetry;
+use crate::symmetry::compose::Condition;
+use crate::symmetry::finite::SignedPermutation;
+use crate::symmetry::lie::{LieGroupSpec, TaskGroupAction};
+use crate::symmetry::transfer::lift::{LiftError, LiftedAction};
+
+/// A finite grid of conditions `s = (θ, λ, σ)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroupGrid {
+    /// Rotation step Δθ (degrees): θ = kΔθ ∈ [−180°, 180°]; absent → θ = 0 only.
+    #[serde(default)]
+    pub rotation_step_deg: Option<f64>,
+    /// Scaling factors λ (> 0); absent → `[1.0]`.
+    #[serde(default = "one")]
+    pub scales: Vec<f64>,
+    /// Include the reflection σ = −1.
+    #[serde(default)]
+    pub reflection: bool,
+}
+
+fn one() -> Vec<f64> {
+    vec![1.0]
+}
+
+impl GroupGrid {
+    /// The identity-only grid (no augmentation).
+    pub fn identity() -> Self {
+        Self {
+            rotation_step_deg: None,
+            scales: one(),
+            reflection: false,
+        }
+    }
+
+    /// Checks steps and scales; says what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        if let Some(d) = self.rotation_step_deg {
+            if !(d.is_finite() && d > 0.0 && d <= 180.0) {
+                return Err(format!("rotation_step_deg {d} must be in (0, 180]"));
+            }
+        }
+        if self.scales.is_empty() || self.scales.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+            return Err(format!(
+                "scales {:?} must be non-empty and positive",
+                self.scales
+            ));
+        }
+        Ok(())
+    }
+
+    /// The rotation angles (rad), ascending, always containing 0.
+    pub fn angles(&self) -> Vec<f64> {
+        match self.rotation_step_deg {
+            None => vec![0.0],
+            Some(d) => {
+                let k = (180.0 / d + 1e-9).floor() as i64;
+                (-k..=k).map(|i| (i as f64 * d).to_radians()).collect()
+            }
+        }
+    }
+
+    /// All conditions of the grid, in (σ, λ, θ) order.
+    pub fn conditions(&self) -> Vec<Condition> {
+        let sigmas: &[i8] = if self.reflection { &[1, -1] } else { &[1] };
+        let mut out = Vec::new();
+        for &reflection in sigmas {
+            for &scale in &self.scales {
+                for theta in self.angles() {
+                    out.push(Condition {
+                        theta,
+                        scale,
+                        reflection,
+                    });
+                }
+            }
+        }
+        out
+    }
+}
+
+/// `[augmentation]`: the grids of the full composed group for training and testing.
+/// Sub-groups (`identity`, `R`, `RT`, `MRT`) are restrictions of these grids.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AugmentationConfig {
+    /// Training grid (paper: Δθ = 30°, λ ∈ {0.5, …, 1.0}, σ = ±1).
+    pub train: GroupGrid,
+    /// Test grid (paper: Δθ = 15°, same λ and σ).
+    pub test: GroupGrid,
+}
+
+/// The sub-groups of `G_MRT` compared in Table II.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum SubGroup {
+    /// No augmentation (`Original`).
+    Identity,
+    /// Rotations only (`G_R`).
+    R,
+    /// Rotations and scalings (`G_RT`).
+    RT,
+    /// The full composition (`G_MRT`).
+    MRT,
+}
+
+impl SubGroup {
+    /// All four, in Table II order.
+    pub const ALL: [Self; 4] = [Self::Identity, Self::R, Self::RT, Self::MRT];
+
+    /// Table label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Identity => "Original",
+            Self::R => "G_R",
+            Self::RT => "G_RT",
+            Self::MRT => "G_MRT",
+        }
+    }
+
+    /// Parses `identity`/`original`, `R`, `RT`, `MRT` (case-insensitive).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "identity" | "original" | "none" => Some(Self::Identity),
+            "r" | "g_r" => Some(Self::R),
+            "rt" | "g_rt" => Some(Self::RT),
+            "mrt" | "g_mrt" => Some(Self::MRT),
+            _ => None,
+        }
+    }
+}
+
+impl SubGroup {
+    /// True when `c` belongs to this sub-group (given that it is on the full grid).
+    pub fn contains(self, c: &Condition) -> bool {
+        match self {
+            Self::Identity => c.theta == 0.0 && c.scale == 1.0 && c.reflection == 1,
+            Self::R => c.scale == 1.0 && c.reflection == 1,
+            Self::RT => c.reflection == 1,
+            Self::MRT => true,
+        }
+    }
+}
+
+impl GroupGrid {
+    /// The grid restricted to a sub-group: `R` keeps rotations, `RT` adds scalings, `MRT` all.
+    pub fn restrict(&self, g: SubGroup) -> Self {
+        match g {
+            SubGroup::Identity => Self::identity(),
+            SubGroup::R => Self {
+                rotation_step_deg: self.rotation_step_deg,
+                scales: one(),
+                reflection: false,
+            },
+            SubGroup::RT => Self {
+                reflection: false,
+                ..self.clone()
+            },
+            SubGroup::MRT => self.clone(),
+        }
+    }
+}
+
+/// A transformed demonstration and the condition that produced it.
+#[derive(Debug, Clone)]
+pub struct Augmented {
+    /// `s = (θ, λ, σ)`.
+    pub condition: Condition,
+    /// The transformed trajectory (`x` is `f(q')`).
+    pub traj: JointTrajectory,
+}
+
+/// Why a transformed trajectory was dropped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum DropReason {
+    /// A flow reached a kinematic singularity.
+    Singular,
+    /// A sample left the joint limits.
+    JointLimits,
+    /// The integrator failed.
+    Integration,
+}
+
+/// The augmented set with its bookkeeping.
+#[derive(Debug, Clone, Default)]
+pub struct AugmentedSet {
+    /// Feasible transformed trajectories.
+    pub trajectories: Vec<Augmented>,
+    /// Dropped `(demo, condition, reason)`.
+    pub dropped: Vec<(usize, Condition, DropReason)>,
+}
+
+impl AugmentedSet {
+    /// The trajectories of a sub-group (cloned), e.g. `G_R` out of a `G_MRT` set.
+    pub fn subset(&self, g: SubGroup) -> Vec<&Augmented> {
+        self.trajectories
+            .iter()
+            .filter(|a| g.contains(&a.condition))
+            .collect()
+    }
+
+    /// Number of dropped trajectories for `reason`.
+    pub fn dropped_for(&self, reason: DropReason) -> usize {
+        self.dropped.iter().filter(|d| d.2 == reason).count()
+    }
+}
+
+/// Applies the lifted composed group to demonstrations.
+pub struct Augmenter<'a> {
+    kin: &'a Kinematics,
+    rotation: LiftedAction<'a>,
+    scaling: LiftedAction<'a>,
+    reflection: SignedPermutation,
+}
+
+/// Picks `(ρ_Q, rotation, scaling)` from built symmetries named in `order` (outer → inner,
+/// eq. 23): a finite symmetry on `Q`, an SO(2) and a scaling on `X`, in that order.
+pub fn letter_group<'b>(
+    built: &'b [BuiltSymmetry],
+    order: &[String],
+) -> Result<
+    (
+        SignedPermutation,
+        &'b dyn TaskGroupAction,
+        &'b dyn TaskGroupAction,
+    ),
+    String,
+> {
+    let find = |name: &str| {
+        built
+            .iter()
+            .find(|b| b.name() == name)
+            .ok_or_else(|| format!("no symmetry `{name}`"))
+    };
+    let [m, r, s] = order else {
+        return Err(format!(
+            "[composition] order must name 3 symmetries (M, R, S), got {order:?}"
+        ));
+    };
+    let rho = match find(m)? {
+        BuiltSymmetry::Finite { rho_q, .. } => rho_q.clone(),
+        _ => return Err(format!("`{m}` must be a morphological (finite) symmetry")),
+    };
+    let lie = |name: &str, want: fn(&LieGroupSpec) -> bool, what: &str| match find(name)? {
+        BuiltSymmetry::Lie {
+            action,
+            affine: Some(spec),
+            ..
+        } if want(spec) => Ok(action.as_ref()),
+        _ => Err(format!("`{name}` must be {what}")),
+    };
+    let rot = lie(
+        r,
+        |s| matches!(s, LieGroupSpec::So2 { .. }),
+        "an SO(2) rotation",
+    )?;
+    let sc = lie(s, |s| matches!(s, LieGroupSpec::Scaling), "a scaling")?;
+    Ok((rho, rot, sc))
+}
+
+fn reason(e: &LiftError) -> DropReason {
+    match e {
+        LiftError::Singular { .. } | LiftError::BadStart { .. } => DropReason::Singular,
+        _ => DropReason::Integration,
+    }
+}
+
+impl<'a> Augmenter<'a> {
+    /// Transforms every demonstration (in parallel, one task per demonstration and scale) and
+    /// calls `progress` after each task (`demos.len() × scales` calls).
+    pub fn augment(
+        &self,
+        demos: &[&JointTrajectory],
+        grid: &GroupGrid,
+        progress: &(dyn Fn() + Sync),
+    ) -> AugmentedSet {
+        use rayon::prelude::*;
+        // One task per (demonstration, scale): enough tasks to keep both cores busy.
+        let tasks: Vec<(&JointTrajectory, f64)> = demos
+            .iter()
+            .flat_map(|d| grid.scales.iter().map(move |&s| (*d, s)))
+            .collect();
+        let parts: Vec<AugmentedSet> = tasks
+            .par_iter()
+            .map(|(d, s)| {
+                let part = self.augment_scale(d, *s, grid);
+                progress();
+                part
+            })
+            .collect();
+        let mut out = AugmentedSet::default();
+        for p in parts {
+            out.trajectories.extend(p.trajectories);
+            out.dropped.extend(p.dropped);
+        }
+        out
+    }
+
+    /// Lifted rotation and scaling (acting on `X`) and the reflection `ρ_Q` (acting on `Q`).
+    pub fn new(
+        kin: &'a Kinematics,
+        rotation: LiftedAction<'a>,
+        scaling: LiftedAction<'a>,
+        reflection: SignedPermutation,
+    ) -> Result<Self, String> {
+        if reflection.dim() != kin.dof() {
+            return Err(format!(
+                "reflection acts on R^{}, dim Q = {}",
+                reflection.dim(),
+                kin.dof()
+            ));
+        }
+        Ok(Self {
+            kin,
+            rotation,
+            scaling,
+            reflection,
+        })
+    }
+
+    /// Transforms one demonstration by every condition of `grid` (σ = +1 and −1 share flows).
+    pub fn augment_one(&self, demo: &JointTrajectory, grid: &GroupGrid) -> AugmentedSet {
+        let mut set = AugmentedSet::default();
+        for &scale in &grid.scales {
+            let part = self.augment_scale(demo, scale, grid);
+            set.trajectories.extend(part.trajectories);
+            set.dropped.extend(part.dropped);
+        }
+        set
+    }
+
+    /// Transforms one demonstration by the conditions of `grid` with scaling `scale`.
+    pub fn augment_scale(
+        &self,
+        demo: &JointTrajectory,
+        scale: f64,
+        grid: &GroupGrid,
+    ) -> AugmentedSet {
+        let n = demo.n;
+        let len = demo.len();
+        let angles = grid.angles();
+        let zero = angles
+            .iter()
+            .position(|&a| a == 0.0)
+            .expect("grid contains 0");
+        let mut set = AugmentedSet::default();
+        let mut lws = self.rotation.workspace();
+        let mut kws = self.kin.workspace();
+        {
+            // Per angle: positions and velocities for all samples, or a drop reason.
+            let mut q_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
+            let mut v_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
+            let mut failed: Vec<Option<DropReason>> = vec![None; angles.len()];
+            let (mut qs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+            let (mut qa, mut va, mut qb, mut vb) =
+                (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            for i in 0..len {
+                let (q, v) = (demo.q(i), demo.qdot(i));
+                if scale == 1.0 {
+                    qs.copy_from_slice(q);
+                    vs.copy_from_slice(v);
+                } else if let Err(e) = self.scaling.act_with_differential(
+                    &[scale.ln()],
+                    q,
+                    v,
+                    &mut qs,
+                    &mut vs,
+                    &mut lws,
+                ) {
+                    failed.iter_mut().for_each(|f| *f = f.or(Some(reason(&e))));
+                    break;
+                }
+                q_out[zero].extend_from_slice(&qs);
+                v_out[zero].extend_from_slice(&vs);
+                // Step out from θ = 0 in both directions.
+                for dir in [1isize, -1] {
+                    qa.copy_from_slice(&qs);
+                    va.copy_from_slice(&vs);
+                    let mut k = zero as isize;
+                    let mut prev = 0.0;
+                    loop {
+                        k += dir;
+                        if k < 0 || k as usize >= angles.len() {
+                            break;
+                        }
+                        let ku = k as usize;
+                        if failed[ku].is_some() {
+                            // Every angle further out is unreachable for this sample too.
+                            let mut j = k;
+                            while j >= 0 && (j as usize) < angles.len() {
+                                failed[j as usize].get_or_insert(DropReason::Singular);
+                                j += dir;
+                            }
+                            break;
+                        }
+                        let step = angles[ku] - prev;
+                        match self.rotation.act_with_differential(
+                            &[step],
+                            &qa,
+                            &va,
+                            &mut qb,
+                            &mut vb,
+                            &mut lws,
+                        ) {
+                            Ok(_) => {
+                                q_out[ku].extend_from_slice(&qb);
+                                v_out[ku].extend_from_slice(&vb);
+                                std::mem::swap(&mut qa, &mut qb);
+                                std::mem::swap(&mut va, &mut vb);
+                                prev = angles[ku];
+                            }
+                            Err(e) => {
+                                let mut j = k;
+                                while j >= 0 && (j as usize) < angles.len() {
+                                    failed[j as usize].get_or_insert(reason(&e));
+                                    j += dir;
+                                }
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+            for (ai, &theta) in angles.iter().enumerate() {
+                let sigmas: &[i8] = if grid.reflection { &[1, -1] } else { &[1] };
+                for &sigma in sigmas {
+                    let condition = Condition {
+                        theta,
+                        scale,
+                        reflection: sigma,
+                    };
+                    if let Some(r) = failed[ai] {
+                        set.dropped.push((demo.demo, condition, r));
+                        continue;
+                    }
+                    let (mut q, mut qd) = (q_out[ai].clone(), v_out[ai].clone());
+                    if sigma == -1 {
+                        let mut tmp = vec![0.0; n];
+                        for i in 0..len {
+                            self.reflection.apply(&q[i * n..(i + 1) * n], &mut tmp);
+                            q[i * n..(i + 1) * n].copy_from_slice(&tmp);
+                            self.reflection.apply(&qd[i * n..(i + 1) * n], &mut tmp);
+                            qd[i * n..(i + 1) * n].copy_from_slice(&tmp);
+                        }
+                    }
+                    if (0..len).any(|i| !self.kin.within_limits(&q[i * n..(i + 1) * n])) {
+                        set.dropped
+                            .push((demo.demo, condition, DropReason::JointLimits));
+                        continue;
+                    }
+                    let mut x = Vec::with_capacity(len * demo.m);
+                    for i in 0..len {
+                        x.extend(self.kin.forward(&q[i * n..(i + 1) * n], &mut kws).iter());
+                    }
+                    set.trajectories.push(Augmented {
+                        condition,
+                        traj: JointTrajectory {
+                            demo: demo.demo,
+                            n,
+                            m: demo.m,
+                            dt: demo.dt,
+                            q,
+                            qdot: qd,
+                            x,
+                        },
+                    });
+                }
+            }
+        }
+        set
+    }
+}

@@ -1,0 +1,15 @@
+//! Demonstration data: the LASA handwriting letters of the paper's drawing experiment
+//! (Sec. VI-A) and the MAT v5 reader for their original files.
+//!
+//! - [`lasa`]: [`LetterSet`] / [`Demonstration`] from CSV or MAT files (mm, s, mm/s).
+//! - [`mat5`]: a small, defensive MATLAB MAT-file Level 5 reader ([`MatFile`], [`MatValue`]).
+//! - [`letters`]: letters placed in the robot's workspace and tracked into joint space.
+//! - [`augmentation`]: the lifted composed group applied to demonstrations (eq. 23).
+
+pub mod augmentation;
+pub mod lasa;
+pub mod letters;
+pub mod mat5;
+
+pub use lasa::{DataError, Demonstration, LetterSet};
+pub use mat5::{Mat5Error, MatFile, MatValue, MatVariable, NumericClass};

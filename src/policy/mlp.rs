@@ -1,0 +1,576 @@
+//! The policy network: a multilayer perceptron and its allocation-free inference.
+//!
+//! Layer `l` maps `h_{l+1} = φ(W_l h_l + b_l)` with `W_l ∈ ℝ^{out×in}` (row-major, the
+//! `candle_nn::Linear` / PyTorch layout) and `φ = tanh` on every hidden layer; the output
+//! layer is linear. `tanh` is chosen because the learned vector field `π(q, s)` is then
+//! smooth (C^∞, so Euler rollouts and their gradients through time are well behaved), the
+//! bounded hidden activations keep long training rollouts from blowing up, and it is
+//! evaluated identically (to rounding) by candle and by `f64::tanh` here, so the control
+//! loop reproduces the training forward pass.
+//!
+//! [`MlpInference`] holds the weights as plain `f64` vectors and runs the forward pass in
+//! `f64` using a caller-owned [`MlpWorkspace`]; candle is not on this path.
+//! [`Policy`] couples it with the [`Normalizer`] and provenance ([`PolicyMeta`]);
+//! [`Policy::velocity`] is the control-loop entry point and allocates nothing.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::PolicyError;
+use super::features::Normalizer;
+use super::train::TrainConfig;
+use crate::symmetry::compose::Condition;
+
+/// Hidden-layer nonlinearity (the output layer is always linear).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum Activation {
+    /// Hyperbolic tangent (dimensionless, in `(−1, 1)`).
+    #[default]
+    Tanh,
+}
+
+impl Activation {
+    /// Applies the nonlinearity to one pre-activation (dimensionless).
+    #[inline]
+    pub fn apply(self, x: f64) -> f64 {
+        match self {
+            Activation::Tanh => x.tanh(),
+        }
+    }
+}
+
+/// Architecture of the network: input width, hidden widths, output width, activation.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MlpSpec {
+    /// Input width (`n + 4` for a policy).
+    pub input: usize,
+    /// Hidden-layer widths, input side first (may be empty: a linear map).
+    pub hidden: Vec<usize>,
+    /// Output width (`n` for a policy).
+    pub output: usize,
+    /// Hidden-layer nonlinearity.
+    #[serde(default)]
+    pub activation: Activation,
+}
+
+impl MlpSpec {
+    /// All widths `[input, hidden…, output]`.
+    pub fn layer_sizes(&self) -> Vec<usize> {
+        let mut v = Vec::with_capacity(self.hidden.len() + 2);
+        v.push(self.input);
+        v.extend_from_slice(&self.hidden);
+        v.push(self.output);
+        v
+    }
+
+    /// Number of affine layers (`hidden.len() + 1`).
+    pub fn num_layers(&self) -> usize {
+        self.hidden.len() + 1
+    }
+
+    /// `(out, in)` of affine layer `l`.
+    pub fn layer_shape(&self, l: usize) -> (usize, usize) {
+        let fan_in = if l == 0 {
+            self.input
+        } else {
+            self.hidden[l - 1]
+        };
+        let fan_out = if l == self.hidden.len() {
+            self.output
+        } else {
+            self.hidden[l]
+        };
+        (fan_out, fan_in)
+    }
+
+    /// Largest hidden width (0 without hidden layers).
+    pub fn max_hidden(&self) -> usize {
+        self.hidden.iter().copied().max().unwrap_or(0)
+    }
+
+    /// Total number of weights and biases.
+    pub fn num_params(&self) -> usize {
+        (0..self.num_layers())
+            .map(|l| {
+                let (o, i) = self.layer_shape(l);
+                o * i + o
+            })
+            .sum()
+    }
+
+    /// Safetensors name of layer `l`'s weight matrix (`layers.{l}.weight`, shape `[out, in]`).
+    pub fn weight_name(l: usize) -> String {
+        format!("layers.{l}.weight")
+    }
+
+    /// Safetensors name of layer `l`'s bias (`layers.{l}.bias`, shape `[out]`).
+    pub fn bias_name(l: usize) -> String {
+        format!("layers.{l}.bias")
+    }
+
+    /// Checks that every width is positive; says what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.input == 0 || self.output == 0 {
+            return Err(format!(
+                "input {} and output {} widths must be positive",
+                self.input, self.output
+            ));
+        }
+        if let Some(l) = self.hidden.iter().position(|&h| h == 0) {
+            return Err(format!("hidden layer {l} has width 0"));
+        }
+        Ok(())
+    }
+}
+
+/// Scratch buffers for [`MlpInference::forward`]: two ping-pong vectors of the widest
+/// hidden layer.
+#[derive(Debug, Clone)]
+pub struct MlpWorkspace {
+    a: Vec<f64>,
+    b: Vec<f64>,
+}
+
+impl MlpWorkspace {
+    /// Buffers for networks whose hidden layers are at most `spec.max_hidden()` wide.
+    pub fn new(spec: &MlpSpec) -> Self {
+        let w = spec.max_hidden();
+        Self {
+            a: vec![0.0; w],
+            b: vec![0.0; w],
+        }
+    }
+
+    /// Width each buffer can hold (number of `f64`); never changes after construction.
+    pub fn capacity(&self) -> usize {
+        self.a.len()
+    }
+}
+
+/// The network's weights as plain `f64` row-major vectors, with an allocation-free forward.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MlpInference {
+    spec: MlpSpec,
+    weights: Vec<Vec<f64>>,
+    biases: Vec<Vec<f64>>,
+}
+
+impl MlpInference {
+    /// Builds from per-layer row-major weights `[out × in]` and biases `[out]`; checks the
+    /// spec, every shape and that all values are finite, and says what is wrong.
+    pub fn new(
+        spec: MlpSpec,
+        weights: Vec<Vec<f64>>,
+        biases: Vec<Vec<f64>>,
+    ) -> Result<Self, String> {
+        spec.validate()?;
+        let l = spec.num_layers();
+        if weights.len() != l || biases.len() != l {
+            return Err(format!(
+                "{l} layers expected, got {} weight matrices and {} bias vectors",
+                weights.len(),
+                biases.len()
+            ));
+        }
+        for k in 0..l {
+            let (o, i) = spec.layer_shape(k);
+            if weights[k].len() != o * i {
+                return Err(format!(
+                    "layer {k}: weight has {} values, expected {o}×{i}",
+                    weights[k].len()
+                ));
+            }
+            if biases[k].len() != o {
+                return Err(format!(
+                    "layer {k}: bias has {} values, expected {o}",
+                    biases[k].len()
+                ));
+            }
+            if let Some(j) = weights[k].iter().position(|w| !w.is_finite()) {
+                return Err(format!("layer {k}: weight[{j}] is not finite"));
+            }
+            if let Some(j) = biases[k].iter().position(|w| !w.is_finite()) {
+                return Err(format!("layer {k}: bias[{j}] is not finite"));
+            }
+        }
+        Ok(Self {
+            spec,
+            weights,
+            biases,
+        })
+    }
+
+    /// The architecture.
+    pub fn spec(&self) -> &MlpSpec {
+        &self.spec
+    }
+
+    /// Row-major `[out × in]` weights of layer `l`.
+    pub fn weight(&self, l: usize) -> &[f64] {
+        &self.weights[l]
+    }
+
+    /// Bias of layer `l`.
+    pub fn bias(&self, l: usize) -> &[f64] {
+        &self.biases[l]
+    }
+
+    /// A workspace sized for this network.
+    pub fn workspace(&self) -> MlpWorkspace {
+        MlpWorkspace::new(&self.spec)
+    }
+
+    /// `out = MLP(input)`; `input` of length `spec.input`, `out` of length `spec.output`.
+    /// Allocates nothing.
+    ///
+    /// # Panics
+    /// On slice lengths that disagree with the spec or a workspace built for a narrower net.
+    pub fn forward(&self, input: &[f64], out: &mut [f64], ws: &mut MlpWorkspace) {
+        assert_eq!(input.len(), self.spec.input, "MLP input width");
+        assert_eq!(out.len(), self.spec.output, "MLP output width");
+        assert!(
+            ws.capacity() >= self.spec.max_hidden(),
+            "MLP workspace too narrow"
+        );
+        let last = self.spec.num_layers() - 1;
+        if last == 0 {
+            self.layer(0, input, out, false);
+            return;
+        }
+        let MlpWorkspace { a, b } = ws;
+        let h0 = self.spec.hidden[0];
+        self.layer(0, input, &mut a[..h0], true);
+        let mut in_a = true;
+        for l in 1..last {
+            let (o, i) = self.spec.layer_shape(l);
+            if in_a {
+                self.layer(l, &a[..i], &mut b[..o], true);
+            } else {
+                self.layer(l, &b[..i], &mut a[..o], true);
+            }
+            in_a = !in_a;
+        }
+        let i = self.spec.hidden[last - 1];
+        if in_a {
+            self.layer(last, &a[..i], out, false);
+        } else {
+            self.layer(last, &b[..i], out, false);
+        }
+    }
+
+    /// `y = φ(W_l x + b_l)` (or without `φ` for the output layer).
+    #[inline]
+    fn layer(&self, l: usize, x: &[f64], y: &mut [f64], activate: bool) {
+        let cols = x.len();
+        let w = &self.weights[l];
+        let bias = &self.biases[l];
+        for (r, yr) in y.iter_mut().enumerate() {
+            let v = bias[r] + dot(&w[r * cols..(r + 1) * cols], x);
+            *yr = if activate {
+                self.spec.activation.apply(v)
+            } else {
+                v
+            };
+        }
+    }
+}
+
+/// Dot product with eight independent accumulators (lets the compiler vectorise).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0f64; 8];
+    let ca = a.chunks_exact(8);
+    let cb = b.chunks_exact(8);
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..8 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut s = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+    for (x, y) in ra.iter().zip(rb) {
+        s += x * y;
+    }
+    s
+}
+
+/// Provenance stored in the sidecar: robot, joints, symmetry, training setup, crate version.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PolicyMeta {
+    /// Robot name (free text, e.g. the URDF's robot name).
+    pub robot: String,
+    /// Joint names in the order of `q` (empty, or exactly `n` names).
+    pub joint_names: Vec<String>,
+    /// The symmetry the policy was trained with, as given by the caller (free-form).
+    pub symmetry: serde_json::Value,
+    /// The training configuration, when the policy was trained by [`super::train()`].
+    pub train_config: Option<TrainConfig>,
+    /// Version of `crossym` that created or last saved the policy.
+    pub crate_version: String,
+}
+
+impl PolicyMeta {
+    /// Metadata with the current crate version and no training configuration.
+    pub fn new(
+        robot: impl Into<String>,
+        joint_names: Vec<String>,
+        symmetry: serde_json::Value,
+    ) -> Self {
+        Self {
+            robot: robot.into(),
+            joint_names,
+            symmetry,
+            train_config: None,
+            crate_version: env!("CARGO_PKG_VERSION").to_string(),
+        }
+    }
+}
+
+impl Default for PolicyMeta {
+    fn default() -> Self {
+        Self::new("", Vec::new(), serde_json::Value::Null)
+    }
+}
+
+/// Scratch buffers for [`Policy::velocity`].
+#[derive(Debug, Clone)]
+pub struct PolicyWorkspace {
+    input: Vec<f64>,
+    y: Vec<f64>,
+    mlp: MlpWorkspace,
+}
+
+impl PolicyWorkspace {
+    /// Total number of `f64` held (for checking that it never grows).
+    pub fn capacity(&self) -> usize {
+        self.input.capacity() + self.y.capacity() + 2 * self.mlp.capacity()
+    }
+}
+
+/// A symmetry-conditioned joint-space policy `π(q, s) → q̇` ready for the control loop.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Policy {
+    normalizer: Normalizer,
+    mlp: MlpInference,
+    /// Provenance (free to edit; checked against `n` when saving and loading).
+    pub meta: PolicyMeta,
+}
+
+impl Policy {
+    /// Couples a normaliser and a network; checks `input = n + 4`, `output = n` and the
+    /// joint-name count.
+    pub fn new(
+        normalizer: Normalizer,
+        mlp: MlpInference,
+        meta: PolicyMeta,
+    ) -> Result<Self, PolicyError> {
+        let p = Self {
+            normalizer,
+            mlp,
+            meta,
+        };
+        p.check(std::path::Path::new("<memory>"))?;
+        Ok(p)
+    }
+
+    /// Consistency checks shared by [`Policy::new`], save and load.
+    pub(crate) fn check(&self, path: &std::path::Path) -> Result<(), PolicyError> {
+        let invalid = |field: &str, message: String| PolicyError::Invalid {
+            path: path.to_path_buf(),
+            field: field.into(),
+            message,
+        };
+        self.normalizer
+            .validate()
+            .map_err(|m| invalid("normalizer", m))?;
+        let n = self.normalizer.dim();
+        let spec = self.mlp.spec();
+        if spec.input != self.normalizer.input_dim() {
+            return Err(invalid(
+                "mlp.input",
+                format!(
+                    "{} but the normaliser has {n} joints (input must be n + 4 = {})",
+                    spec.input,
+                    self.normalizer.input_dim()
+                ),
+            ));
+        }
+        if spec.output != n {
+            return Err(invalid(
+                "mlp.output",
+                format!("{} but the normaliser has {n} joints", spec.output),
+            ));
+        }
+        if !(self.meta.joint_names.is_empty() || self.meta.joint_names.len() == n) {
+            return Err(invalid(
+                "joint_names",
+                format!("{} names for {n} joints", self.meta.joint_names.len()),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Joint-space dimension `n`.
+    pub fn dim(&self) -> usize {
+        self.normalizer.dim()
+    }
+
+    /// The input/output normalisation.
+    pub fn normalizer(&self) -> &Normalizer {
+        &self.normalizer
+    }
+
+    /// The network.
+    pub fn mlp(&self) -> &MlpInference {
+        &self.mlp
+    }
+
+    /// A workspace sized for this policy (allocate once, before the control loop).
+    pub fn workspace(&self) -> PolicyWorkspace {
+        PolicyWorkspace {
+            input: vec![0.0; self.normalizer.input_dim()],
+            y: vec![0.0; self.dim()],
+            mlp: self.mlp.workspace(),
+        }
+    }
+
+    /// `out = π(q, s)`: joint velocity (rad/s) at joint position `q` (rad) for condition
+    /// `s`. Allocates nothing; `s` is not validated here (validate it once, upstream).
+    ///
+    /// # Panics
+    /// When `q` or `out` is not of length `n`, or `ws` was built for a smaller policy.
+    pub fn velocity(&self, q: &[f64], s: &Condition, out: &mut [f64], ws: &mut PolicyWorkspace) {
+        let n = self.dim();
+        assert_eq!(q.len(), n, "policy q length");
+        assert_eq!(out.len(), n, "policy output length");
+        let PolicyWorkspace { input, y, mlp } = ws;
+        let input = &mut input[..n + super::features::CONDITION_FEATURES];
+        let y = &mut y[..n];
+        self.normalizer.encode(q, s, input);
+        self.mlp.forward(input, y, mlp);
+        self.normalizer.denormalize_qdot(y, out);
+    }
+
+    /// Euler rollout `q_{k+1} = q_k + Δt π(q_k, s)` for `steps` steps from `q0` (rad);
+    /// returns the `(steps + 1) × n` row-major positions, `q0` first (rad). Allocates.
+    pub fn rollout(&self, q0: &[f64], s: &Condition, dt: f64, steps: usize) -> Vec<f64> {
+        let n = self.dim();
+        let mut ws = self.workspace();
+        let mut traj = Vec::with_capacity((steps + 1) * n);
+        traj.extend_from_slice(q0);
+        let mut v = vec![0.0; n];
+        let mut q = q0.to_vec();
+        for _ in 0..steps {
+            self.velocity(&q, s, &mut v, &mut ws);
+            for j in 0..n {
+                q[j] += dt * v[j];
+            }
+            traj.extend_from_slice(&q);
+        }
+        traj
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn policy(n: usize, hidden: Vec<usize>) -> Policy {
+        let spec = MlpSpec {
+            input: n + 4,
+            hidden,
+            output: n,
+            activation: Activation::Tanh,
+        };
+        let (mut w, mut b) = (Vec::new(), Vec::new());
+        for l in 0..spec.num_layers() {
+            let (o, i) = spec.layer_shape(l);
+            // Deterministic, well-scaled weights without an RNG.
+            w.push(
+                (0..o * i)
+                    .map(|k| ((k * 7 + l) % 13) as f64 / 13.0 - 0.45)
+                    .collect(),
+            );
+            b.push((0..o).map(|k| 0.01 * k as f64).collect());
+        }
+        let mlp = MlpInference::new(spec, w, b).unwrap();
+        Policy::new(Normalizer::identity(n), mlp, PolicyMeta::default()).unwrap()
+    }
+
+    #[test]
+    fn velocity_10k_calls_without_workspace_growth() {
+        let p = policy(8, vec![64, 48, 64]);
+        let mut ws = p.workspace();
+        let cap = ws.capacity();
+        let mut q = [0.0; 8];
+        let mut out = [0.0; 8];
+        let mut first = [0.0; 8];
+        for i in 0..10_000 {
+            let s = Condition {
+                theta: (i as f64 * 1e-3).sin() * 3.0,
+                scale: 0.5 + 0.5 * ((i % 7) as f64 / 7.0),
+                reflection: if i % 2 == 0 { 1 } else { -1 },
+            };
+            for (j, qj) in q.iter_mut().enumerate() {
+                *qj = ((i + j) as f64 * 1e-2).cos();
+            }
+            p.velocity(&q, &s, &mut out, &mut ws);
+            assert!(out.iter().all(|v| v.is_finite()));
+            if i == 0 {
+                first = out;
+            }
+            assert_eq!(ws.capacity(), cap);
+        }
+        // Same input as call 0 gives the same output: no state leaks between calls.
+        let mut q0 = [0.0; 8];
+        for (j, qj) in q0.iter_mut().enumerate() {
+            *qj = (j as f64 * 1e-2).cos();
+        }
+        p.velocity(
+            &q0,
+            &Condition {
+                theta: 0.0,
+                scale: 0.5,
+                reflection: 1,
+            },
+            &mut out,
+            &mut ws,
+        );
+        assert_eq!(out, first);
+    }
+
+    #[test]
+    fn forward_without_hidden_layers_is_affine() {
+        let p = policy(2, vec![]);
+        let mut ws = p.workspace();
+        let mut out = [0.0; 2];
+        p.velocity(&[0.0, 0.0], &Condition::IDENTITY, &mut out, &mut ws);
+        // u = [0, 0, 1, 0, 0, 1]: y_r = b_r + W_r2 + W_r5.
+        let w = p.mlp().weight(0);
+        for r in 0..2 {
+            assert!((out[r] - (p.mlp().bias(0)[r] + w[r * 6 + 2] + w[r * 6 + 5])).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn rejects_inconsistent_widths() {
+        let spec = MlpSpec {
+            input: 6,
+            hidden: vec![3],
+            output: 2,
+            activation: Activation::Tanh,
+        };
+        assert!(MlpInference::new(spec.clone(), vec![vec![0.0; 18]], vec![vec![0.0; 3]]).is_err());
+        let mlp = MlpInference::new(
+            spec,
+            vec![vec![0.0; 18], vec![0.0; 6]],
+            vec![vec![0.0; 3], vec![0.0; 2]],
+        )
+        .unwrap();
+        let e = Policy::new(Normalizer::identity(3), mlp, PolicyMeta::default()).unwrap_err();
+        assert!(e.to_string().contains("mlp.input"), "{e}");
+    }
+}

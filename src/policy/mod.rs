@@ -1,0 +1,30 @@
+//! Symmetry-conditioned joint-space policies `π(q, s) → q̇`, `s = (θ, λ, σ)` (paper
+//! Sec. VI-A), learned by imitation as in CONDOR (Pérez-Dattari & Kober 2023).
+//!
+//! The policy is an MLP on `u = [(q − μ) ⊘ σ_q, cos θ, sin θ, ln λ, σ]` predicting
+//! `y = q̇ ⊘ v`; it is trained by rolling it out with Euler steps
+//! `q_{k+1} = q_k + Δt π(q_k, s)` over short windows of the demonstrations and matching
+//! the demonstrated positions (plus a weighted velocity term).
+//!
+//! - [`features`]: input encoding and the [`Normalizer`].
+//! - [`mlp`]: architecture ([`MlpSpec`]), allocation-free `f64` inference
+//!   ([`MlpInference`]) and the control-loop [`Policy`].
+//! - [`train`](mod@train): training with candle ([`train()`], [`TrainConfig`], [`TrainReport`]).
+//! - [`io`]: safetensors weights + JSON sidecar ([`Policy::save`], [`Policy::load`]).
+//!
+//! Only training uses candle; [`Policy::velocity`] is plain `f64` code that allocates
+//! nothing, with a caller-owned [`PolicyWorkspace`].
+
+pub mod error;
+pub mod features;
+pub mod io;
+pub mod mlp;
+pub mod train;
+
+pub use error::PolicyError;
+pub use features::{encode_condition, Normalizer, CONDITION_FEATURES, STD_FLOOR};
+pub use io::{sidecar_path, FORMAT, FORMAT_VERSION};
+pub use mlp::{
+    Activation, MlpInference, MlpSpec, MlpWorkspace, Policy, PolicyMeta, PolicyWorkspace,
+};
+pub use train::{train, CandleMlp, LrSchedule, TrainConfig, TrainReport};

@@ -1,0 +1,622 @@
+//! Imitation learning of `π(q, s) → q̇` with candle, following CONDOR's recipe
+//! (Pérez-Dattari & Kober 2023), without its stability loss.
+//!
+//! Each iteration samples `B` windows `(τ, t)` uniformly over every valid start `t` of
+//! every training trajectory `τ` (so long demonstrations weigh more), then, in normalised
+//! coordinates `z` (see [`super::features`]):
+//!
+//! - rolls the network out for `H` Euler steps from the demonstrated `z_t`:
+//!   `ẑ_{t+k+1} = ẑ_{t+k} + Δt g ⊙ π(ẑ_{t+k}, s)`, `ẑ_t = z_t`;
+//! - `L = mean_{b,k,j} (ẑ_{t+k} − z_{t+k})²  +  w_v · mean_{b,k,j} (π(z_{t+k}, s) − y_{t+k})²`
+//!   for `k = 1..H` (positions) and `k = 0..H−1` (velocities, `y = q̇ ⊘ v`);
+//! - takes one Adam step (AdamW with zero weight decay) with the scheduled learning rate.
+//!
+//! Scale: the position residuals are `O(H Δt g)` times the velocity residuals, so with the
+//! default `w_v = 1` the velocity term dominates early training and the rollout term
+//! corrects the accumulated drift; lower `w_v` to emphasise the rollout.
+//!
+//! Training runs in `f32` on the CPU. Everything random is seeded from
+//! [`TrainConfig::seed`]: the weights are drawn from a seeded `StdRng` (Glorot uniform,
+//! zero biases) instead of candle's own initialisers, the window sampler uses a second
+//! stream, so a run is reproducible bit for bit from the configuration and the data
+//! (candle's CPU matmul partitions outputs across threads, never a reduction).
+
+use std::time::Instant;
+
+use candle_core::{DType, Device, Tensor, Var};
+use candle_nn::optim::{AdamW, Optimizer, ParamsAdamW};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use super::error::PolicyError;
+use super::features::{encode_condition, Normalizer, CONDITION_FEATURES};
+use super::mlp::{Activation, MlpInference, MlpSpec, Policy, PolicyMeta};
+use crate::data::letters::JointTrajectory;
+use crate::symmetry::compose::Condition;
+
+/// Learning-rate schedule over the iterations.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LrSchedule {
+    /// The learning rate stays at [`TrainConfig::learning_rate`].
+    Constant,
+    /// Cosine decay from [`TrainConfig::learning_rate`] to `final_learning_rate`.
+    Cosine {
+        /// Learning rate reached at the last iteration (dimensionless, > 0).
+        final_learning_rate: f64,
+    },
+}
+
+impl Default for LrSchedule {
+    fn default() -> Self {
+        LrSchedule::Cosine {
+            final_learning_rate: 1e-5,
+        }
+    }
+}
+
+impl LrSchedule {
+    /// Learning rate at 0-based iteration `k` of `total`, starting from `lr0`.
+    pub fn at(&self, lr0: f64, k: usize, total: usize) -> f64 {
+        match *self {
+            LrSchedule::Constant => lr0,
+            LrSchedule::Cosine {
+                final_learning_rate: f,
+            } => {
+                let p = if total == 0 {
+                    0.0
+                } else {
+                    k as f64 / total as f64
+                };
+                f + 0.5 * (lr0 - f) * (1.0 + (std::f64::consts::PI * p).cos())
+            }
+        }
+    }
+}
+
+fn d_hidden() -> Vec<usize> {
+    vec![256, 256, 256]
+}
+fn d_horizon() -> usize {
+    10
+}
+fn d_velocity_weight() -> f64 {
+    1.0
+}
+fn d_lr() -> f64 {
+    1e-3
+}
+fn d_iterations() -> usize {
+    2000
+}
+fn d_batch() -> usize {
+    256
+}
+fn d_log_every() -> usize {
+    10
+}
+
+/// `[train]`: network architecture and optimisation settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Hidden-layer widths.
+    #[serde(default = "d_hidden")]
+    pub hidden: Vec<usize>,
+    /// Hidden-layer nonlinearity.
+    #[serde(default)]
+    pub activation: Activation,
+    /// Rollout horizon `H` (steps; each window spans `H + 1` samples).
+    #[serde(default = "d_horizon")]
+    pub horizon: usize,
+    /// Weight `w_v` of the velocity term (dimensionless, ≥ 0).
+    #[serde(default = "d_velocity_weight")]
+    pub velocity_weight: f64,
+    /// Initial Adam learning rate (> 0).
+    #[serde(default = "d_lr")]
+    pub learning_rate: f64,
+    /// Learning-rate schedule.
+    #[serde(default)]
+    pub lr_schedule: LrSchedule,
+    /// Number of optimiser steps (0 returns the initial network).
+    #[serde(default = "d_iterations")]
+    pub iterations: usize,
+    /// Windows per batch `B` (> 0).
+    #[serde(default = "d_batch")]
+    pub batch_size: usize,
+    /// Seed of the weight initialisation and the window sampler.
+    #[serde(default)]
+    pub seed: u64,
+    /// Call the progress callback every this many iterations (> 0).
+    #[serde(default = "d_log_every")]
+    pub log_every: usize,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            hidden: d_hidden(),
+            activation: Activation::default(),
+            horizon: d_horizon(),
+            velocity_weight: d_velocity_weight(),
+            learning_rate: d_lr(),
+            lr_schedule: LrSchedule::default(),
+            iterations: d_iterations(),
+            batch_size: d_batch(),
+            seed: 0,
+            log_every: d_log_every(),
+        }
+    }
+}
+
+impl TrainConfig {
+    /// Checks every field's domain.
+    pub fn validate(&self) -> Result<(), PolicyError> {
+        let bad = |field: &str, message: String| {
+            Err(PolicyError::Config {
+                field: field.into(),
+                message,
+            })
+        };
+        if let Some(l) = self.hidden.iter().position(|&h| h == 0) {
+            return bad("hidden", format!("layer {l} has width 0"));
+        }
+        if self.horizon == 0 {
+            return bad("horizon", "must be at least 1".into());
+        }
+        if !(self.velocity_weight.is_finite() && self.velocity_weight >= 0.0) {
+            return bad(
+                "velocity_weight",
+                format!("{} must be finite and ≥ 0", self.velocity_weight),
+            );
+        }
+        if !(self.learning_rate.is_finite() && self.learning_rate > 0.0) {
+            return bad(
+                "learning_rate",
+                format!("{} must be positive", self.learning_rate),
+            );
+        }
+        if let LrSchedule::Cosine {
+            final_learning_rate: f,
+        } = self.lr_schedule
+        {
+            if !(f.is_finite() && f > 0.0) {
+                return bad(
+                    "lr_schedule.final_learning_rate",
+                    format!("{f} must be positive"),
+                );
+            }
+        }
+        if self.batch_size == 0 {
+            return bad("batch_size", "must be at least 1".into());
+        }
+        if self.log_every == 0 {
+            return bad("log_every", "must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// Outcome of [`train()`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainReport {
+    /// Loss of the initial network on a fixed evaluation batch.
+    pub initial_loss: f64,
+    /// Loss of the trained network on the same evaluation batch.
+    pub final_loss: f64,
+    /// Optimiser steps taken.
+    pub iterations: usize,
+    /// Wall-clock time of the optimisation loop (s).
+    pub seconds: f64,
+    /// Number of distinct windows sampled from.
+    pub windows: usize,
+    /// Trajectories skipped because they are shorter than `horizon + 1` samples.
+    pub skipped_short: usize,
+}
+
+/// The network as candle variables (`f32`, CPU): used for training and as the reference
+/// forward pass.
+#[derive(Debug, Clone)]
+pub struct CandleMlp {
+    spec: MlpSpec,
+    weights: Vec<Var>,
+    biases: Vec<Var>,
+}
+
+impl CandleMlp {
+    /// Glorot-uniform weights `U(±√(6/(in+out)))` and zero biases, drawn from
+    /// `StdRng::seed_from_u64(seed)` layer by layer, row-major.
+    pub fn init(spec: &MlpSpec, seed: u64) -> Result<Self, PolicyError> {
+        spec.validate().map_err(|message| PolicyError::Config {
+            field: "hidden".into(),
+            message,
+        })?;
+        let mut rng = StdRng::seed_from_u64(seed);
+        let mut weights = Vec::new();
+        let mut biases = Vec::new();
+        for l in 0..spec.num_layers() {
+            let (o, i) = spec.layer_shape(l);
+            let a = (6.0 / (o + i) as f64).sqrt() as f32;
+            let w: Vec<f32> = (0..o * i).map(|_| rng.random_range(-a..a)).collect();
+            weights.push(Var::from_tensor(&Tensor::from_vec(
+                w,
+                (o, i),
+                &Device::Cpu,
+            )?)?);
+            biases.push(Var::from_tensor(&Tensor::zeros(
+                o,
+                DType::F32,
+                &Device::Cpu,
+            )?)?);
+        }
+        Ok(Self {
+            spec: spec.clone(),
+            weights,
+            biases,
+        })
+    }
+
+    /// The same network as candle variables (weights rounded to `f32`).
+    pub fn from_inference(mlp: &MlpInference) -> Result<Self, PolicyError> {
+        let spec = mlp.spec().clone();
+        let mut weights = Vec::new();
+        let mut biases = Vec::new();
+        for l in 0..spec.num_layers() {
+            let (o, i) = spec.layer_shape(l);
+            let w: Vec<f32> = mlp.weight(l).iter().map(|&x| x as f32).collect();
+            let b: Vec<f32> = mlp.bias(l).iter().map(|&x| x as f32).collect();
+            weights.push(Var::from_tensor(&Tensor::from_vec(
+                w,
+                (o, i),
+                &Device::Cpu,
+            )?)?);
+            biases.push(Var::from_tensor(&Tensor::from_vec(b, o, &Device::Cpu)?)?);
+        }
+        Ok(Self {
+            spec,
+            weights,
+            biases,
+        })
+    }
+
+    /// The architecture.
+    pub fn spec(&self) -> &MlpSpec {
+        &self.spec
+    }
+
+    /// All trainable variables (weights and biases, layer by layer).
+    pub fn vars(&self) -> Vec<Var> {
+        self.weights
+            .iter()
+            .zip(&self.biases)
+            .flat_map(|(w, b)| [w.clone(), b.clone()])
+            .collect()
+    }
+
+    /// Forward pass on a `[rows, input]` `f32` tensor, returning `[rows, output]`.
+    pub fn forward(&self, x: &Tensor) -> candle_core::Result<Tensor> {
+        let last = self.spec.num_layers() - 1;
+        let mut h = x.clone();
+        for l in 0..=last {
+            h = h
+                .matmul(&self.weights[l].as_tensor().t()?)?
+                .broadcast_add(self.biases[l].as_tensor())?;
+            if l < last {
+                h = match self.spec.activation {
+                    Activation::Tanh => h.tanh()?,
+                };
+            }
+        }
+        Ok(h)
+    }
+
+    /// Forward pass on `rows` row-major inputs (`f64`, rounded to `f32`); row-major outputs.
+    pub fn forward_rows(&self, input: &[f64], rows: usize) -> Result<Vec<f64>, PolicyError> {
+        let x: Vec<f32> = input.iter().map(|&v| v as f32).collect();
+        let x = Tensor::from_vec(x, (rows, self.spec.input), &Device::Cpu)?;
+        let y = self.forward(&x)?.flatten_all()?.to_vec1::<f32>()?;
+        Ok(y.into_iter().map(f64::from).collect())
+    }
+
+    /// The weights copied out into an [`MlpInference`] (exact `f32 → f64` widening).
+    pub fn to_inference(&self) -> Result<MlpInference, PolicyError> {
+        let mut w = Vec::new();
+        let mut b = Vec::new();
+        for l in 0..self.spec.num_layers() {
+            let flat = |v: &Var| -> Result<Vec<f64>, PolicyError> {
+                Ok(v.as_tensor()
+                    .flatten_all()?
+                    .to_vec1::<f32>()?
+                    .into_iter()
+                    .map(f64::from)
+                    .collect())
+            };
+            w.push(flat(&self.weights[l])?);
+            b.push(flat(&self.biases[l])?);
+        }
+        MlpInference::new(self.spec.clone(), w, b).map_err(|message| PolicyError::Backend {
+            message: format!("trained weights rejected: {message}"),
+        })
+    }
+}
+
+/// One trajectory in normalised `f32` form.
+struct Prepared {
+    len: usize,
+    z: Vec<f32>,
+    y: Vec<f32>,
+    cond: [f32; CONDITION_FEATURES],
+    /// `Δt g` per joint.
+    step: Vec<f32>,
+}
+
+/// Uniform sampler over all `(trajectory, start)` windows.
+struct Sampler {
+    /// `cum[i]` = windows in trajectories `< i`; last entry = total.
+    cum: Vec<usize>,
+    rng: StdRng,
+}
+
+impl Sampler {
+    fn sample(&mut self) -> (usize, usize) {
+        let total = *self.cum.last().unwrap_or(&0);
+        let w = self.rng.random_range(0..total);
+        let i = self.cum.partition_point(|&c| c <= w) - 1;
+        (i, w - self.cum[i])
+    }
+}
+
+struct Batch {
+    z0: Tensor,
+    cond: Tensor,
+    step: Tensor,
+    target: Tensor,
+    vel_in: Tensor,
+    vel_target: Tensor,
+}
+
+fn make_batch(
+    data: &[Prepared],
+    sampler: &mut Sampler,
+    b: usize,
+    h: usize,
+    n: usize,
+) -> Result<Batch, PolicyError> {
+    let c = CONDITION_FEATURES;
+    let mut z0 = Vec::with_capacity(b * n);
+    let mut cond = Vec::with_capacity(b * c);
+    let mut step = Vec::with_capacity(b * n);
+    let mut target = Vec::with_capacity(b * h * n);
+    let mut vel_in = Vec::with_capacity(b * h * (n + c));
+    let mut vel_target = Vec::with_capacity(b * h * n);
+    for _ in 0..b {
+        let (i, t) = sampler.sample();
+        let p = &data[i];
+        z0.extend_from_slice(&p.z[t * n..(t + 1) * n]);
+        cond.extend_from_slice(&p.cond);
+        step.extend_from_slice(&p.step);
+        target.extend_from_slice(&p.z[(t + 1) * n..(t + h + 1) * n]);
+        for k in t..t + h {
+            vel_in.extend_from_slice(&p.z[k * n..(k + 1) * n]);
+            vel_in.extend_from_slice(&p.cond);
+        }
+        vel_target.extend_from_slice(&p.y[t * n..(t + h) * n]);
+    }
+    let dev = &Device::Cpu;
+    Ok(Batch {
+        z0: Tensor::from_vec(z0, (b, n), dev)?,
+        cond: Tensor::from_vec(cond, (b, c), dev)?,
+        step: Tensor::from_vec(step, (b, n), dev)?,
+        target: Tensor::from_vec(target, (b, h, n), dev)?,
+        vel_in: Tensor::from_vec(vel_in, (b * h, n + c), dev)?,
+        vel_target: Tensor::from_vec(vel_target, (b * h, n), dev)?,
+    })
+}
+
+/// The CONDOR imitation loss of one batch (scalar tensor).
+fn batch_loss(mlp: &CandleMlp, batch: &Batch, h: usize, w_v: f64) -> candle_core::Result<Tensor> {
+    let mut z = batch.z0.clone();
+    let mut zs = Vec::with_capacity(h);
+    for _ in 0..h {
+        let u = Tensor::cat(&[&z, &batch.cond], 1)?;
+        let y = mlp.forward(&u)?;
+        z = (z + y.mul(&batch.step)?)?;
+        zs.push(z.clone());
+    }
+    let roll = Tensor::stack(&zs, 1)?;
+    let pos = (roll - &batch.target)?.sqr()?.mean_all()?;
+    if w_v == 0.0 {
+        return Ok(pos);
+    }
+    let vel = (mlp.forward(&batch.vel_in)? - &batch.vel_target)?
+        .sqr()?
+        .mean_all()?;
+    pos + (vel * w_v)?
+}
+
+fn scalar(t: &Tensor) -> Result<f64, PolicyError> {
+    Ok(f64::from(t.to_scalar::<f32>()?))
+}
+
+/// Checks and normalises the training data; returns the prepared trajectories and the
+/// number of short ones skipped.
+fn prepare(
+    data: &[(&JointTrajectory, Condition)],
+    norm: &Normalizer,
+    h: usize,
+) -> (Vec<Prepared>, usize) {
+    let n = norm.dim();
+    let mut out = Vec::new();
+    let mut skipped = 0;
+    let mut zq = vec![0.0; n];
+    let mut yq = vec![0.0; n];
+    for (t, s) in data {
+        let len = t.len();
+        if len < h + 1 {
+            skipped += 1;
+            continue;
+        }
+        let mut z = Vec::with_capacity(len * n);
+        let mut y = Vec::with_capacity(len * n);
+        for i in 0..len {
+            norm.normalize_q(t.q(i), &mut zq);
+            norm.normalize_qdot(t.qdot(i), &mut yq);
+            z.extend(zq.iter().map(|&v| v as f32));
+            y.extend(yq.iter().map(|&v| v as f32));
+        }
+        let mut c = [0.0f64; CONDITION_FEATURES];
+        encode_condition(s, &mut c);
+        out.push(Prepared {
+            len,
+            z,
+            y,
+            cond: c.map(|v| v as f32),
+            step: (0..n).map(|j| (t.dt * norm.gain(j)) as f32).collect(),
+        });
+    }
+    (out, skipped)
+}
+
+fn check_data(data: &[(&JointTrajectory, Condition)]) -> Result<(), PolicyError> {
+    let bad = |message: String| Err(PolicyError::Data { message });
+    let Some((first, _)) = data.first() else {
+        return bad("no training trajectories".into());
+    };
+    let n = first.n;
+    if n == 0 {
+        return bad(format!("demonstration {} has zero joints", first.demo));
+    }
+    for (k, (t, s)) in data.iter().enumerate() {
+        let what = format!("trajectory {k} (demo {})", t.demo);
+        if t.n != n {
+            return bad(format!("{what} has {} joints, expected {n}", t.n));
+        }
+        if t.q.len() % n != 0 || t.qdot.len() != t.q.len() {
+            return bad(format!(
+                "{what}: q has {} values and qdot {}, expected equal multiples of {n}",
+                t.q.len(),
+                t.qdot.len()
+            ));
+        }
+        if !(t.dt.is_finite() && t.dt > 0.0) {
+            return bad(format!("{what}: dt {} must be positive", t.dt));
+        }
+        if t.q.iter().chain(&t.qdot).any(|v| !v.is_finite()) {
+            return bad(format!("{what} has non-finite positions or velocities"));
+        }
+        if let Err(m) = s.validate() {
+            return bad(format!("{what}: condition: {m}"));
+        }
+    }
+    Ok(())
+}
+
+/// Trains a policy on `(trajectory, condition)` pairs; `progress(iteration, loss)` is
+/// called every [`TrainConfig::log_every`] iterations and after the last one, with the
+/// number of completed iterations and that batch's loss.
+///
+/// `meta` is stored in the policy with `train_config` set to `config`.
+pub fn train(
+    data: &[(&JointTrajectory, Condition)],
+    config: &TrainConfig,
+    mut meta: PolicyMeta,
+    mut progress: impl FnMut(usize, f64),
+) -> Result<(Policy, TrainReport), PolicyError> {
+    config.validate()?;
+    check_data(data)?;
+    let h = config.horizon;
+    let normalizer = Normalizer::fit(data.iter().map(|(t, _)| *t))?;
+    let n = normalizer.dim();
+    let (prepared, skipped_short) = prepare(data, &normalizer, h);
+    let mut cum = vec![0usize];
+    for p in &prepared {
+        cum.push(cum.last().copied().unwrap_or(0) + (p.len - h));
+    }
+    let windows = *cum.last().unwrap_or(&0);
+    if windows == 0 {
+        return Err(PolicyError::Data {
+            message: format!(
+                "no trajectory has the {} samples a horizon of {h} needs",
+                h + 1
+            ),
+        });
+    }
+    let spec = MlpSpec {
+        input: normalizer.input_dim(),
+        hidden: config.hidden.clone(),
+        output: n,
+        activation: config.activation,
+    };
+    let mlp = CandleMlp::init(&spec, config.seed)?;
+    let mut sampler = Sampler {
+        cum: cum.clone(),
+        rng: StdRng::seed_from_u64(config.seed ^ 0x9E37_79B9_7F4A_7C15),
+    };
+    let mut eval_sampler = Sampler {
+        cum,
+        rng: StdRng::seed_from_u64(config.seed ^ 0xD1B5_4A32_D192_ED03),
+    };
+    let w_v = config.velocity_weight;
+    let eval = make_batch(
+        &prepared,
+        &mut eval_sampler,
+        config.batch_size.max(256),
+        h,
+        n,
+    )?;
+    let initial_loss = scalar(&batch_loss(&mlp, &eval, h, w_v)?)?;
+
+    let mut opt = AdamW::new(
+        mlp.vars(),
+        ParamsAdamW {
+            lr: config.learning_rate,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-8,
+            weight_decay: 0.0,
+        },
+    )?;
+    let start = Instant::now();
+    for k in 0..config.iterations {
+        opt.set_learning_rate(
+            config
+                .lr_schedule
+                .at(config.learning_rate, k, config.iterations),
+        );
+        let batch = make_batch(&prepared, &mut sampler, config.batch_size, h, n)?;
+        let loss = batch_loss(&mlp, &batch, h, w_v)?;
+        let l = scalar(&loss)?;
+        if !l.is_finite() {
+            return Err(PolicyError::Diverged {
+                iteration: k,
+                loss: l,
+            });
+        }
+        opt.backward_step(&loss)?;
+        if (k + 1) % config.log_every == 0 || k + 1 == config.iterations {
+            progress(k + 1, l);
+        }
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let final_loss = scalar(&batch_loss(&mlp, &eval, h, w_v)?)?;
+    if !final_loss.is_finite() {
+        return Err(PolicyError::Diverged {
+            iteration: config.iterations,
+            loss: final_loss,
+        });
+    }
+    meta.train_config = Some(config.clone());
+    let policy = Policy::new(normalizer, mlp.to_inference()?, meta)?;
+    Ok((
+        policy,
+        TrainReport {
+            initial_loss,
+            final_loss,
+            iterations: config.iterations,
+            seconds,
+            windows,
+            skipped_short,
+        },
+    ))
+}
