@@ -34,6 +34,33 @@ enum Command {
         #[arg(long, short)]
         config: PathBuf,
     },
+    /// Train a symmetry-conditioned policy on the letters augmented with a sub-group.
+    Train {
+        /// Config file (TOML) with [letters], [augmentation], [train].
+        #[arg(long, short)]
+        config: PathBuf,
+        /// Sub-group used for augmentation: identity, R, RT or MRT.
+        #[arg(long, default_value = "MRT")]
+        group: String,
+        /// Output weights (`.safetensors`; a `.json` sidecar is written beside it).
+        #[arg(long)]
+        out: PathBuf,
+        /// Override `[train] iterations`.
+        #[arg(long)]
+        iterations: Option<usize>,
+    },
+    /// Evaluate policies on the test sets of every sub-group (Table II): task-space RMSE.
+    Eval {
+        /// Config file (TOML).
+        #[arg(long, short)]
+        config: PathBuf,
+        /// `label=path.safetensors`, repeatable (e.g. `pi_MRT=policies/pi_mrt.safetensors`).
+        #[arg(long = "policy", required = true)]
+        policies: Vec<String>,
+        /// Directory for `table2.md` and `table2.csv`.
+        #[arg(long, default_value = "results")]
+        out: PathBuf,
+    },
     /// Transfer and compose the configured symmetries and print the numerical checks.
     /// Exits 1 when a requested composition is impossible or a transfer fails.
     Check {
@@ -49,6 +76,17 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Info { config, q } => info(&config, q),
         Command::Check { config } => check(&config),
         Command::Augment { config } => augment(&config),
+        Command::Train {
+            config,
+            group,
+            out,
+            iterations,
+        } => train(&config, &group, &out, iterations),
+        Command::Eval {
+            config,
+            policies,
+            out,
+        } => eval(&config, &policies, &out),
     }
 }
 
@@ -225,21 +263,31 @@ fn check(path: &PathBuf) -> anyhow::Result<ExitCode> {
     }
 }
 
-fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
-    use crossym::data::augmentation::{letter_group, Augmenter, DropReason, SubGroup};
+/// Letters tracked into joint space and both splits augmented with the full grid.
+struct Pipeline {
+    demos: crossym::data::letters::LetterDemos,
+    train: crossym::data::augmentation::AugmentedSet,
+    test: crossym::data::augmentation::AugmentedSet,
+    train_secs: f64,
+    test_secs: f64,
+}
+
+fn pipeline(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    splits: (bool, bool),
+) -> anyhow::Result<Pipeline> {
+    use crossym::data::augmentation::{letter_group, AugmentedSet, Augmenter};
     use crossym::symmetry::transfer::flow::FlowSettings;
     use crossym::symmetry::transfer::lift::LiftedAction;
-    let cfg = Config::from_file(path)?;
-    let robot = cfg.load_robot()?;
-    let kin = &robot.kinematics;
     let letters = cfg
         .letters
         .as_ref()
-        .with_context(|| format!("{}: no [letters] section", path.display()))?;
+        .with_context(|| format!("{}: no [letters] section", cfg.path.display()))?;
     let aug = cfg
         .augmentation
         .as_ref()
-        .with_context(|| format!("{}: no [augmentation] section", path.display()))?;
+        .with_context(|| format!("{}: no [augmentation] section", cfg.path.display()))?;
     aug.train
         .validate()
         .map_err(anyhow::Error::msg)
@@ -248,15 +296,7 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
         .validate()
         .map_err(anyhow::Error::msg)
         .context("[augmentation] test")?;
-    let t0 = std::time::Instant::now();
     let demos = letters.build(kin, &cfg.base_dir)?;
-    println!(
-        "tracked {} demonstrations of {} samples in {:.2} s; max tracking error {:.3e} (task units)",
-        demos.demos.len(),
-        demos.demos.first().map_or(0, |d| d.len()),
-        t0.elapsed().as_secs_f64(),
-        demos.max_tracking_error
-    );
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
     let (rho, rot, sc) =
         letter_group(&built, &cfg.composition.order).map_err(anyhow::Error::msg)?;
@@ -272,14 +312,7 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
         rho,
     )
     .map_err(anyhow::Error::msg)?;
-    println!(
-        "{:<6} {:<9} {:>6} {:>8} {:>9} {:>8}",
-        "set", "group", "kept", "dropped", "singular", "limits"
-    );
-    for (label, grid, which) in [
-        ("train", &aug.train, &demos.train),
-        ("test", &aug.test, &demos.test),
-    ] {
+    let run = |label: &str, grid: &crossym::data::augmentation::GroupGrid, which: &[usize]| {
         let sel = demos.select(which);
         let bar = indicatif::ProgressBar::new((sel.len() * grid.scales.len()) as u64);
         bar.set_style(
@@ -293,7 +326,46 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
         let t = std::time::Instant::now();
         let set = augmenter.augment(&sel, grid, &|| bar.inc(1));
         bar.finish_and_clear();
-        let secs = t.elapsed().as_secs_f64();
+        (set, t.elapsed().as_secs_f64())
+    };
+    let (train, train_secs) = if splits.0 {
+        run("train", &aug.train, &demos.train)
+    } else {
+        (AugmentedSet::default(), 0.0)
+    };
+    let (test, test_secs) = if splits.1 {
+        run("test", &aug.test, &demos.test)
+    } else {
+        (AugmentedSet::default(), 0.0)
+    };
+    Ok(Pipeline {
+        demos,
+        train,
+        test,
+        train_secs,
+        test_secs,
+    })
+}
+
+fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
+    use crossym::data::augmentation::{DropReason, SubGroup};
+    let cfg = Config::from_file(path)?;
+    let robot = cfg.load_robot()?;
+    let p = pipeline(&cfg, &robot.kinematics, (true, true))?;
+    println!(
+        "tracked {} demonstrations of {} samples; max tracking error {:.3e} (task units)",
+        p.demos.demos.len(),
+        p.demos.demos.first().map_or(0, |d| d.len()),
+        p.demos.max_tracking_error
+    );
+    println!(
+        "{:<6} {:<9} {:>6} {:>8} {:>9} {:>8}",
+        "set", "group", "kept", "dropped", "singular", "limits"
+    );
+    for (label, set, secs) in [
+        ("train", &p.train, p.train_secs),
+        ("test", &p.test, p.test_secs),
+    ] {
         for g in SubGroup::ALL {
             let dropped: Vec<_> = set.dropped.iter().filter(|d| g.contains(&d.1)).collect();
             println!(
@@ -318,5 +390,141 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
         );
     }
     println!("paper (G_MRT): 780 train / 600 test trajectories");
+    Ok(ExitCode::SUCCESS)
+}
+
+fn train(
+    path: &PathBuf,
+    group: &str,
+    out: &PathBuf,
+    iterations: Option<usize>,
+) -> anyhow::Result<ExitCode> {
+    use crossym::data::augmentation::SubGroup;
+    let cfg = Config::from_file(path)?;
+    let g = SubGroup::parse(group)
+        .with_context(|| format!("--group `{group}`: expected identity, R, RT or MRT"))?;
+    let mut tc = cfg
+        .train
+        .clone()
+        .with_context(|| format!("{}: no [train] section", path.display()))?;
+    if let Some(it) = iterations {
+        tc.iterations = it;
+    }
+    let robot = cfg.load_robot()?;
+    let kin = &robot.kinematics;
+    let p = pipeline(&cfg, kin, (true, false))?;
+    let data: Vec<_> = p
+        .train
+        .subset(g)
+        .into_iter()
+        .map(|a| (&a.traj, a.condition))
+        .collect();
+    println!(
+        "training on {} trajectories of {} ({} iterations)",
+        data.len(),
+        g.label(),
+        tc.iterations
+    );
+    let symmetry = serde_json::json!({
+        "group": g.label(),
+        "order": cfg.composition.order,
+        "grid": cfg.augmentation.as_ref().map(|a| serde_json::to_value(&a.train).unwrap_or_default()),
+    });
+    let meta = crossym::policy::PolicyMeta::new(&kin.robot, kin.joint_names().to_vec(), symmetry);
+    let bar = indicatif::ProgressBar::new(tc.iterations as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "  [{bar:30}] {pos}/{len} it, loss {msg} {elapsed}/{duration}",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
+    );
+    let (policy, report) = crossym::policy::train(&data, &tc, meta, |it, loss| {
+        bar.set_position(it as u64);
+        bar.set_message(format!("{loss:.4e}"));
+    })?;
+    bar.finish_and_clear();
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    policy.save(out)?;
+    println!(
+        "loss {:.4e} → {:.4e} in {} iterations, {:.1} s; saved {}",
+        report.initial_loss,
+        report.final_loss,
+        report.iterations,
+        report.seconds,
+        out.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<ExitCode> {
+    use crossym::data::augmentation::SubGroup;
+    use std::fmt::Write as _;
+    let cfg = Config::from_file(path)?;
+    let robot = cfg.load_robot()?;
+    let kin = &robot.kinematics;
+    let mut loaded = Vec::new();
+    for spec in policies {
+        let (label, file) = spec
+            .split_once('=')
+            .with_context(|| format!("--policy `{spec}`: expected label=path"))?;
+        let policy = crossym::policy::Policy::load(file)?;
+        anyhow::ensure!(
+            policy.meta.joint_names == kin.joint_names(),
+            "{file}: policy joints {:?} differ from the robot's {:?}",
+            policy.meta.joint_names,
+            kin.joint_names()
+        );
+        loaded.push((label.to_string(), policy));
+    }
+    let p = pipeline(&cfg, kin, (false, true))?;
+    let mut md =
+        String::from("| Policy | Original | G_R | G_RT | G_MRT |\n|---|---|---|---|---|\n");
+    let mut csv = String::from("policy,test_set,mean_rmse,std_rmse,count,diverged\n");
+    for (label, policy) in &loaded {
+        let mut row = format!("| {label} |");
+        for g in SubGroup::ALL {
+            let set: Vec<_> = p
+                .test
+                .subset(g)
+                .into_iter()
+                .map(|a| (&a.traj, a.condition))
+                .collect();
+            let c = crossym::eval::evaluate(policy, kin, &set, &cfg.eval);
+            let _ = write!(
+                row,
+                " {:.3} ± {:.3}{} |",
+                c.mean,
+                c.std,
+                if c.diverged > 0 {
+                    format!(" ({} div.)", c.diverged)
+                } else {
+                    String::new()
+                }
+            );
+            let _ = writeln!(
+                csv,
+                "{label},{},{},{},{},{}",
+                g.label(),
+                c.mean,
+                c.std,
+                c.count,
+                c.diverged
+            );
+        }
+        println!("{row}");
+        md.push_str(&row);
+        md.push('\n');
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    std::fs::write(out.join("table2.md"), &md)?;
+    std::fs::write(out.join("table2.csv"), &csv)?;
+    println!(
+        "wrote {} and {}",
+        out.join("table2.md").display(),
+        out.join("table2.csv").display()
+    );
     Ok(ExitCode::SUCCESS)
 }

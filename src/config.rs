@@ -11,7 +11,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::augmentation::AugmentationConfig;
 use crate::data::letters::LetterTaskConfig;
+use crate::eval::EvalConfig;
 use crate::kinematics::{ChainSpec, Kinematics, KinematicsError, KinematicsSettings, RobotModel};
+use crate::policy::TrainConfig;
 use crate::symmetry::spec::{CheckConfig, CompositionConfig, SymmetryConfig};
 
 /// Errors while reading or validating a configuration file.
@@ -132,6 +134,12 @@ pub struct Config {
     /// Augmentation grids (`[augmentation]`).
     #[serde(default)]
     pub augmentation: Option<AugmentationConfig>,
+    /// Policy training (`[train]`).
+    #[serde(default)]
+    pub train: Option<TrainConfig>,
+    /// Evaluation (`[eval]`).
+    #[serde(default)]
+    pub eval: EvalConfig,
     /// Directory of the file, for resolving relative paths (not read from TOML).
     #[serde(skip)]
     pub base_dir: PathBuf,

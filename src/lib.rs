@@ -22,6 +22,7 @@
 
 pub mod config;
 pub mod data;
+pub mod eval;
 pub mod kinematics;
 pub mod policy;
 pub mod safety;

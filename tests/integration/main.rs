@@ -6,6 +6,7 @@ mod check;
 mod common;
 mod data;
 mod descend;
+mod eval;
 mod kinematics;
 mod lift_compose;
 mod policy;

@@ -1,0 +1,135 @@
+//! Evaluation of learned policies (paper Sec. VI-A, Table II).
+//!
+//! For a test trajectory `(q_0 … q_T, x_0 … x_T)` with condition `s`, the policy is rolled
+//! out from the same initial configuration, `q̂_{k+1} = q̂_k + Δt π(q̂_k, s)`, and compared
+//! in task space: `RMSE = √(1/(T+1) Σ_k ‖f(q̂_k) − x_k‖²)` (both arms stacked, task units).
+//! A rollout *diverges* when it becomes non-finite or its task error exceeds a threshold
+//! (default 3.0, the width of the normalised letter box); diverging rollouts stay in the
+//! mean ± std, as in the paper, and are counted.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::data::letters::JointTrajectory;
+use crate::kinematics::Kinematics;
+use crate::policy::Policy;
+use crate::symmetry::compose::Condition;
+
+/// `[eval]` settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvalConfig {
+    /// Task error above which a rollout counts as diverged (task units).
+    #[serde(default = "d_div")]
+    pub divergence_threshold: f64,
+}
+
+fn d_div() -> f64 {
+    3.0
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self {
+            divergence_threshold: d_div(),
+        }
+    }
+}
+
+/// Score of one rollout.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RolloutScore {
+    /// Task-space RMSE against the nominal trajectory (task units).
+    pub rmse: f64,
+    /// True when the rollout diverged (non-finite or beyond the threshold).
+    pub diverged: bool,
+}
+
+/// Rolls `policy` out from the trajectory's first configuration and scores it.
+pub fn score(
+    policy: &Policy,
+    kin: &Kinematics,
+    traj: &JointTrajectory,
+    s: &Condition,
+    cfg: &EvalConfig,
+) -> RolloutScore {
+    let n = traj.n;
+    let steps = traj.len().saturating_sub(1);
+    let mut ws = policy.workspace();
+    let mut kws = kin.workspace();
+    let mut q = traj.q(0).to_vec();
+    let mut v = vec![0.0; n];
+    let mut sum = 0.0;
+    let mut diverged = false;
+    let mut last_err = 0.0;
+    for k in 0..=steps {
+        let err = if diverged {
+            last_err
+        } else {
+            let x = kin.forward(&q, &mut kws);
+            let e = x
+                .iter()
+                .zip(traj.x(k))
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            if !e.is_finite() || e > cfg.divergence_threshold {
+                diverged = true;
+            }
+            if e.is_finite() {
+                last_err = e;
+            }
+            last_err
+        };
+        sum += err * err;
+        if k < steps && !diverged {
+            policy.velocity(&q, s, &mut v, &mut ws);
+            for j in 0..n {
+                q[j] += traj.dt * v[j];
+            }
+        }
+    }
+    RolloutScore {
+        rmse: (sum / (steps + 1) as f64).sqrt(),
+        diverged,
+    }
+}
+
+/// Mean ± std of RMSE over a test set, with the divergence count.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Cell {
+    /// Mean RMSE (task units).
+    pub mean: f64,
+    /// Standard deviation of the RMSE.
+    pub std: f64,
+    /// Test trajectories.
+    pub count: usize,
+    /// Diverged rollouts.
+    pub diverged: usize,
+}
+
+/// Scores every trajectory of a test set (in parallel).
+pub fn evaluate(
+    policy: &Policy,
+    kin: &Kinematics,
+    set: &[(&JointTrajectory, Condition)],
+    cfg: &EvalConfig,
+) -> Cell {
+    let scores: Vec<RolloutScore> = set
+        .par_iter()
+        .map(|(t, s)| score(policy, kin, t, s, cfg))
+        .collect();
+    let count = scores.len();
+    let mean = scores.iter().map(|s| s.rmse).sum::<f64>() / count.max(1) as f64;
+    let var = scores
+        .iter()
+        .map(|s| (s.rmse - mean) * (s.rmse - mean))
+        .sum::<f64>()
+        / count.max(1) as f64;
+    Cell {
+        mean,
+        std: var.sqrt(),
+        count,
+        diverged: scores.iter().filter(|s| s.diverged).count(),
+    }
+}
