@@ -188,7 +188,16 @@ impl DampedPinv {
         if self.metric.identity {
             ws.jm.copy_from(j);
         } else {
-            ws.jm.gemm(1.0, j, &self.metric.inv, 0.0);
+            // J M⁻¹ with explicit loops (gemm may allocate packing buffers).
+            for r in 0..m {
+                for c in 0..n {
+                    let mut acc = 0.0;
+                    for k in 0..n {
+                        acc += j[(r, k)] * self.metric.inv[(k, c)];
+                    }
+                    ws.jm[(r, c)] = acc;
+                }
+            }
         }
         // S0 = (J M⁻¹) Jᵀ, symmetric: fill the lower triangle of l0 and l.
         for r in 0..m {
@@ -280,9 +289,17 @@ impl DampedPinv {
 
     /// Nullspace projector `N = I − J⁺J` (n × n) into `out`, given `j_pinv = J⁺`. Allocation-free.
     pub fn nullspace_projector(j: &DMatrix<f64>, j_pinv: &DMatrix<f64>, out: &mut DMatrix<f64>) {
-        out.gemm(-1.0, j_pinv, j, 0.0);
-        for i in 0..out.nrows() {
-            out[(i, i)] += 1.0;
+        // Explicit loops: nalgebra's gemm hands larger products to matrixmultiply, which
+        // allocates packing buffers.
+        let (m, n) = j.shape();
+        for r in 0..n {
+            for c in 0..n {
+                let mut acc = if r == c { 1.0 } else { 0.0 };
+                for k in 0..m {
+                    acc -= j_pinv[(r, k)] * j[(k, c)];
+                }
+                out[(r, c)] = acc;
+            }
         }
     }
 }

@@ -393,7 +393,18 @@ impl SafetyFilter {
             // W = JᵀJ + ε tr(JᵀJ)/n I (or I without a Jacobian).
             match jac {
                 Some(j) => {
-                    self.w.gemm_tr(1.0, j, j, 0.0);
+                    // JᵀJ with explicit loops (gemm may allocate packing buffers).
+                    let m = j.nrows();
+                    for r in 0..n {
+                        for c in r..n {
+                            let mut acc = 0.0;
+                            for k in 0..m {
+                                acc += j[(k, r)] * j[(k, c)];
+                            }
+                            self.w[(r, c)] = acc;
+                            self.w[(c, r)] = acc;
+                        }
+                    }
                     let tr = (0..n).map(|i| self.w[(i, i)]).sum::<f64>() / n as f64;
                     let eps = self.settings.weight_epsilon * tr.max(1e-12);
                     for i in 0..n {

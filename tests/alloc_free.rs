@@ -1,0 +1,563 @@
+//! Allocation audit of the per-tick kinematics functions.
+//!
+//! The kinematics module promises that, once the model, the chains and their workspaces
+//! are built, FK, Jacobians, the lift and the pseudo-inverse allocate nothing. This test
+//! binary installs a counting global allocator and checks that promise on three robots:
+//! an embedded 3-joint arm (always), the planar dual arm of the paper (when
+//! `urdf/planar_dual_arm.urdf` exists) and RB-Y1 (when the vendor URDF exists in
+//! `../shared`).
+//!
+//! Counting is per thread (tests run in parallel): a thread-local flag switches it on
+//! around the measured calls only. The first allocation of a measured section records a
+//! backtrace, printed in the failure message.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::backtrace::Backtrace;
+use std::cell::{Cell, RefCell};
+use std::collections::HashMap;
+use std::path::Path;
+
+use crossym::kinematics::{
+    Chain, ChainSpec, ChainWorkspace, JointLimits, Kinematics, KinematicsSettings,
+    KinematicsWorkspace, PinvStatus, RobotModel, TaskSpace, ToolOffset,
+};
+use nalgebra::{DMatrix, DVector};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+// ---------------------------------------------------------------------------------------
+// Counting allocator.
+// ---------------------------------------------------------------------------------------
+
+struct CountingAlloc;
+
+thread_local! {
+    // `const` initialisers: no lazy initialisation, hence no allocation, in the allocator.
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+    static FIRST: RefCell<Option<Backtrace>> = const { RefCell::new(None) };
+}
+
+/// Records one allocation if this thread is counting.
+fn note_allocation() {
+    // `try_with`: the allocator may run while thread-locals are being torn down.
+    let _ = COUNTING.try_with(|counting| {
+        if !counting.get() {
+            return;
+        }
+        // Switch counting off while recording: capturing a backtrace allocates.
+        counting.set(false);
+        COUNT.with(|n| n.set(n.get() + 1));
+        FIRST.with(|first| {
+            let mut first = first.borrow_mut();
+            if first.is_none() {
+                *first = Some(Backtrace::force_capture());
+            }
+        });
+        counting.set(true);
+    });
+}
+
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note_allocation();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAlloc = CountingAlloc;
+
+/// Runs `f` with counting on; returns its result, the number of allocations and the
+/// backtrace of the first one.
+fn count_allocs<R>(f: impl FnOnce() -> R) -> (R, usize, Option<Backtrace>) {
+    COUNT.set(0);
+    FIRST.take();
+    COUNTING.set(true);
+    let r = f();
+    COUNTING.set(false);
+    (r, COUNT.get(), FIRST.take())
+}
+
+/// Allocation tally of one function on one robot.
+struct Tally {
+    name: String,
+    count: usize,
+    first: Option<Backtrace>,
+}
+
+struct Audit {
+    robot: String,
+    tallies: Vec<Tally>,
+}
+
+impl Audit {
+    fn new(robot: &str) -> Self {
+        Self {
+            robot: robot.into(),
+            tallies: Vec::new(),
+        }
+    }
+
+    /// Adds the allocations of one measured call to the tally `name`.
+    fn measure<R>(&mut self, name: &str, f: impl FnOnce() -> R) -> R {
+        let (r, count, first) = count_allocs(f);
+        let i = match self.tallies.iter().position(|t| t.name == name) {
+            Some(i) => i,
+            None => {
+                self.tallies.push(Tally {
+                    name: name.into(),
+                    count: 0,
+                    first: None,
+                });
+                self.tallies.len() - 1
+            }
+        };
+        let t = &mut self.tallies[i];
+        t.count += count;
+        if t.first.is_none() {
+            t.first = first;
+        }
+        r
+    }
+
+    /// Prints every tally, then asserts each is zero (the message carries a backtrace).
+    fn finish(self) {
+        for t in &self.tallies {
+            eprintln!("[{}] {:<48} allocations: {}", self.robot, t.name, t.count);
+        }
+        // A short call path (library frames only) for every allocating function, so that
+        // all offenders are visible even though the first failed assertion stops the test.
+        for t in self.tallies.iter().filter(|t| t.count > 0) {
+            let Some(bt) = &t.first else { continue };
+            let text = bt.to_string();
+            let mut lines = text.lines();
+            let mut path = Vec::new();
+            while let Some(line) = lines.next() {
+                let frame = line.trim();
+                let ours = ["crossym::", "nalgebra::", "matrixmultiply::"]
+                    .iter()
+                    .any(|k| frame.contains(k));
+                if ours && frame.contains(": ") {
+                    let at = lines.next().map(str::trim).unwrap_or_default();
+                    path.push(format!("    {frame}\n        {at}"));
+                }
+            }
+            eprintln!(
+                "[{}] {} — first allocation, library frames (innermost first):\n{}",
+                self.robot,
+                t.name,
+                path.join("\n")
+            );
+        }
+        for t in &self.tallies {
+            let at = t.first.as_ref().map(|b| b.to_string()).unwrap_or_default();
+            assert_eq!(
+                t.count, 0,
+                "[{}] {} allocated {} times; first allocation at:\n{at}",
+                self.robot, t.name, t.count
+            );
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Fixtures.
+// ---------------------------------------------------------------------------------------
+
+/// A small 3-joint arm: revolute about z, revolute about a tilted axis, prismatic, and a
+/// fixed tool joint with a rotated origin.
+const ARM3_URDF: &str = r#"<?xml version="1.0"?>
+<robot name="arm3">
+  <link name="base"/>
+  <link name="l1"/>
+  <link name="l2"/>
+  <link name="l3"/>
+  <link name="tool"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.2" rpy="0 0 0"/>
+    <axis xyz="0 0 1"/>
+    <limit lower="-3.0" upper="3.0" effort="10" velocity="2.0"/>
+  </joint>
+  <joint name="j2" type="revolute">
+    <parent link="l1"/><child link="l2"/>
+    <origin xyz="0.1 0 0.3" rpy="0.2 -0.1 0.3"/>
+    <axis xyz="0 0.6 0.8"/>
+    <limit lower="-2.0" upper="2.0" effort="10" velocity="2.0"/>
+  </joint>
+  <joint name="j3" type="prismatic">
+    <parent link="l2"/><child link="l3"/>
+    <origin xyz="0 0.05 0.25" rpy="0 0.4 0"/>
+    <axis xyz="1 0 0"/>
+    <limit lower="0.05" upper="0.3" effort="50" velocity="0.5"/>
+  </joint>
+  <joint name="tool_joint" type="fixed">
+    <parent link="l3"/><child link="tool"/>
+    <origin xyz="0.02 0 0.1" rpy="0 0 0.5"/>
+  </joint>
+</robot>
+"#;
+
+const PLANAR_URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/urdf/planar_dual_arm.urdf");
+const RBY1_URDF: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../shared/robots/rby1a/model.urdf"
+);
+
+/// Configurations per measured function.
+const N_CONFIGS: usize = 200;
+
+fn spec(name: &str, base: &str, tip: &str, task: TaskSpace) -> ChainSpec {
+    ChainSpec {
+        name: name.into(),
+        base: base.into(),
+        tip: tip.into(),
+        tool: ToolOffset::default(),
+        task,
+    }
+}
+
+fn random_q(rng: &mut StdRng, limits: &[JointLimits]) -> Vec<f64> {
+    let pi = std::f64::consts::PI;
+    limits
+        .iter()
+        .map(|l| {
+            let lo = if l.lower.is_finite() { l.lower } else { -pi };
+            let hi = if l.upper.is_finite() { l.upper } else { pi };
+            rng.random_range(lo..=hi)
+        })
+        .collect()
+}
+
+fn all_finite<'a>(v: impl IntoIterator<Item = &'a f64>) -> bool {
+    v.into_iter().all(|x| x.is_finite())
+}
+
+/// Audits every per-tick function of `model` with chains `specs`.
+///
+/// The lift and pseudo-inverse functions run twice: with the identity metric and
+/// `λ = 0` (the shipped configurations), and with a diagonal metric and `λ > 0` (the
+/// `J M⁻¹` product path of `DampedPinv::factor`).
+fn audit(robot: &str, model: &RobotModel, specs: &[ChainSpec], seed: u64) {
+    let held = HashMap::new();
+    let mut audit = Audit::new(robot);
+    let mut rng = StdRng::seed_from_u64(seed);
+
+    // --- Setup (allocates, not counted). ---
+    let chains: Vec<Chain> = specs
+        .iter()
+        .map(|s| Chain::new(model, s, &held).expect("chain builds"))
+        .collect();
+    let mut chain_ws: Vec<ChainWorkspace> = chains.iter().map(Chain::workspace).collect();
+    let identity = KinematicsSettings {
+        damping: 0.0,
+        metric_diagonal: None,
+        singular_manipulability: 1e-6,
+    };
+    let kin = Kinematics::new(model, specs, &held, &identity).expect("kinematics builds");
+    let (n, m) = (kin.dof(), kin.task_dim());
+    let diag: Vec<f64> = (0..n).map(|i| 0.5 + 0.25 * i as f64).collect();
+    let weighted = KinematicsSettings {
+        damping: 0.01,
+        metric_diagonal: Some(diag),
+        singular_manipulability: 1e-6,
+    };
+    let kin_m = Kinematics::new(model, specs, &held, &weighted).expect("kinematics builds");
+    let variants: [(&str, &Kinematics); 2] = [("", &kin), (" [diagonal metric, λ=0.01]", &kin_m)];
+
+    let qs: Vec<Vec<f64>> = (0..N_CONFIGS)
+        .map(|_| random_q(&mut rng, kin.limits()))
+        .collect();
+    let xdots: Vec<Vec<f64>> = (0..N_CONFIGS)
+        .map(|_| (0..m).map(|_| rng.random_range(-1.0..=1.0)).collect())
+        .collect();
+    let mut out = vec![0.0; n];
+    let mut jp = DMatrix::zeros(n, m);
+    let mut proj = DMatrix::zeros(n, n);
+
+    // --- Chain::forward / Chain::jacobian. ---
+    for (c, (chain, ws)) in chains.iter().zip(&mut chain_ws).enumerate() {
+        let off = kin.q_offset(c);
+        for q in &qs {
+            let qc = &q[off..off + chain.dof()];
+            let tip = audit.measure("Chain::forward", || *chain.forward(qc, ws));
+            assert!(all_finite(tip.translation.vector.iter()), "finite FK");
+            assert!(all_finite(tip.rotation.matrix().iter()), "finite FK");
+            audit.measure("Chain::jacobian", || chain.jacobian(qc, ws));
+            assert!(all_finite(ws.jacobian.iter()), "finite Jacobian");
+            // Something real: the Jacobian's position rows match a finite difference.
+            let h = 1e-6;
+            let mut qh = qc.to_vec();
+            qh[0] += h;
+            let mut ws2 = chain.workspace();
+            let p1 = chain.position(&qh, &mut ws2);
+            let fd = (p1 - ws.tip.translation.vector) / h;
+            let col = ws.jacobian.fixed_view::<3, 1>(0, 0);
+            assert!(
+                (fd - col).amax() < 1e-4,
+                "Jacobian column 0 ≈ finite difference"
+            );
+        }
+    }
+
+    // --- Kinematics::forward / jacobian / lift / factor + solve / pinv matrix / projector. ---
+    for (label, k) in variants {
+        let mut ws: KinematicsWorkspace = k.workspace();
+        for (q, xd) in qs.iter().zip(&xdots) {
+            if label.is_empty() {
+                let finite = audit.measure("Kinematics::forward", || {
+                    all_finite(k.forward(q, &mut ws).iter())
+                });
+                assert!(finite, "finite stacked FK");
+                audit.measure("Kinematics::jacobian", || k.jacobian(q, &mut ws));
+                assert!(all_finite(ws.jac.iter()), "finite stacked Jacobian");
+            }
+
+            let report = audit.measure(&format!("Kinematics::lift{label}"), || {
+                k.lift(q, xd, &mut out, &mut ws)
+            });
+            assert!(all_finite(&out), "finite lift");
+            let regular = report.status == PinvStatus::Regular;
+            if regular && k.pinv().damping() == 0.0 {
+                let back = &ws.jac * DVector::from_column_slice(&out);
+                let err = (back - DVector::from_column_slice(xd)).amax();
+                assert!(err < 1e-6, "J J⁺ ẋ = ẋ (error {err:e})");
+            }
+
+            k.jacobian(q, &mut ws); // not counted: isolates factor + solve
+            let report = audit.measure(&format!("Kinematics::factor+solve{label}"), || {
+                let r = k.factor(&mut ws);
+                k.solve(&mut ws, xd, &mut out);
+                r
+            });
+            assert!(report.manipulability.is_finite(), "finite manipulability");
+            assert!(all_finite(&out), "finite solve");
+
+            audit.measure(&format!("DampedPinv::matrix{label}"), || {
+                k.pinv().matrix(&mut ws.pinv, &mut jp)
+            });
+            assert!(all_finite(jp.iter()), "finite J⁺");
+            // Something real: J⁺ ẋ from the matrix equals the solve.
+            let via_matrix = &jp * DVector::from_column_slice(xd);
+            let err = (via_matrix - DVector::from_column_slice(&out)).amax();
+            assert!(err < 1e-9 * (1.0 + out.iter().fold(0.0f64, |a, v| a.max(v.abs()))));
+
+            audit.measure(&format!("DampedPinv::nullspace_projector{label}"), || {
+                crossym::kinematics::DampedPinv::nullspace_projector(&ws.jac, &jp, &mut proj)
+            });
+            assert!(all_finite(proj.iter()), "finite projector");
+            if regular && k.pinv().damping() == 0.0 {
+                let jn = &ws.jac * &proj;
+                assert!(jn.amax() < 1e-6, "J N = 0 (got {:e})", jn.amax());
+            }
+        }
+    }
+
+    audit.finish();
+}
+
+// ---------------------------------------------------------------------------------------
+// Tests.
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn counting_allocator_counts() {
+    // The instrument itself: an allocation inside the window is seen, none outside.
+    let (v, count, first) = count_allocs(|| vec![1.0f64; 16]);
+    assert_eq!(v.len(), 16);
+    assert_eq!(count, 1);
+    assert!(first.is_some());
+    let (_, count, _) = count_allocs(|| 1 + 1);
+    assert_eq!(count, 0);
+}
+
+#[test]
+fn three_joint_arm_is_allocation_free() {
+    let model = RobotModel::from_urdf_str(ARM3_URDF, "<arm3>").expect("arm3 loads");
+    let mut s = spec("arm", "base", "tool", TaskSpace::Xyz);
+    s.tool = ToolOffset {
+        xyz: [0.0, 0.0, 0.05],
+        rpy: [0.1, 0.0, 0.0],
+    };
+    audit("arm3", &model, &[s], 1);
+}
+
+#[test]
+fn planar_dual_arm_is_allocation_free() {
+    if !Path::new(PLANAR_URDF).exists() {
+        eprintln!("SKIP: {PLANAR_URDF} is absent");
+        return;
+    }
+    let model = RobotModel::from_urdf_file(PLANAR_URDF).expect("planar loads");
+    let specs = [
+        spec("left", "base", "left_ee", TaskSpace::Xy),
+        spec("right", "base", "right_ee", TaskSpace::Xy),
+    ];
+    audit("planar_dual_arm", &model, &specs, 2);
+}
+
+#[test]
+fn rby1_is_allocation_free() {
+    if !Path::new(RBY1_URDF).exists() {
+        eprintln!("SKIP: {RBY1_URDF} is absent (RB-Y1 needs ../shared)");
+        return;
+    }
+    let model = RobotModel::from_urdf_file(RBY1_URDF).expect("RB-Y1 loads");
+    let specs = [
+        spec("left", "link_torso_5", "ee_left", TaskSpace::Xyz),
+        spec("right", "link_torso_5", "ee_right", TaskSpace::Xyz),
+    ];
+    audit("rby1", &model, &specs, 3);
+}
+
+/// A policy with deterministic pseudo-random weights (hidden [128, 128, 128], tanh).
+fn tick_policy(n: usize, names: Vec<String>) -> crossym::policy::Policy {
+    use crossym::policy::{Activation, MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
+    let spec = MlpSpec {
+        input: n + 4,
+        hidden: vec![128, 128, 128],
+        output: n,
+        activation: Activation::Tanh,
+    };
+    let mut rng = StdRng::seed_from_u64(11);
+    let sizes = spec.layer_sizes();
+    let weights = sizes
+        .windows(2)
+        .map(|w| {
+            (0..w[0] * w[1])
+                .map(|_| rng.random_range(-0.2..0.2))
+                .collect()
+        })
+        .collect();
+    let biases = sizes[1..].iter().map(|&o| vec![0.01; o]).collect();
+    let mlp = MlpInference::new(spec, weights, biases).unwrap();
+    Policy::new(
+        Normalizer::identity(n),
+        mlp,
+        PolicyMeta::new("tick", names, serde_json::Value::Null),
+    )
+    .unwrap()
+}
+
+/// The whole control tick — FK + Jacobian, MLP forward, safety QP — allocates nothing once
+/// set up, except inside Clarabel's timers on the solver path (bounded and attributed).
+fn audit_tick(robot: &str, kin: &crossym::kinematics::Kinematics, seed: u64) {
+    use crossym::safety::{SafetyFilter, SafetySettings, SafetyStatus};
+    use crossym::symmetry::compose::Condition;
+    let n = kin.dof();
+    let policy = tick_policy(n, kin.joint_names().to_vec());
+    let mut pws = policy.workspace();
+    let mut kws = kin.workspace();
+    let mut filter = SafetyFilter::new(
+        kin.limits(),
+        SafetySettings {
+            default_acceleration: 10.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut v = vec![0.0; n];
+    let mut out = vec![0.0; n];
+    let mut audit = Audit::new(robot);
+    let mut statuses = HashMap::new();
+    let (mut solver_calls, mut solver_allocs) = (0usize, 0usize);
+    for k in 0..300 {
+        let q = random_q(&mut rng, kin.limits());
+        let s = Condition {
+            theta: rng.random_range(-3.0..3.0),
+            scale: rng.random_range(0.5..1.0),
+            reflection: if k % 2 == 0 { 1 } else { -1 },
+        };
+        audit.measure("Kinematics::jacobian", || kin.jacobian(&q, &mut kws));
+        audit.measure("Policy::velocity", || {
+            policy.velocity(&q, &s, &mut v, &mut pws)
+        });
+        // Every third tick: an out-of-bounds request, so the QP solver runs; every third
+        // tick repeats the last command, which is feasible unless a position bound moved.
+        if k % 3 == 0 {
+            v.iter_mut().for_each(|x| *x *= 50.0);
+        } else if k % 3 == 1 {
+            v.copy_from_slice(filter.last_command());
+        }
+        // The solver path is measured apart: Clarabel 0.11 allocates small HashMap nodes in
+        // its internal timers on every solve (clarabel/src/timers/timers.rs, start_subtimer),
+        // which cannot be switched off. Everything of ours must stay at zero.
+        let (rep, count, first) =
+            count_allocs(|| filter.filter(&q, &v, Some(&kws.jac), None, &mut out));
+        if rep.status == SafetyStatus::Filtered && rep.iterations > 0 {
+            solver_calls += 1;
+            solver_allocs += count;
+            if let Some(bt) = first {
+                let text = bt.to_string();
+                let inner = text
+                    .lines()
+                    .find(|l| l.contains("clarabel::") || l.contains("crossym::"))
+                    .unwrap_or("");
+                assert!(
+                    inner.contains("clarabel::timers"),
+                    "[{robot}] solver-path allocation outside Clarabel's timers:\n{text}"
+                );
+            }
+        } else {
+            let at = first.map(|b| b.to_string()).unwrap_or_default();
+            assert_eq!(
+                count, 0,
+                "[{robot}] SafetyFilter::filter ({:?}) allocated:\n{at}",
+                rep.status
+            );
+        }
+        *statuses.entry(format!("{:?}", rep.status)).or_insert(0) += 1;
+        assert!(all_finite(&out));
+    }
+    eprintln!("[{robot}] solver path: {solver_allocs} allocations in {solver_calls} solves (Clarabel timers)");
+    assert!(
+        solver_calls > 0 && solver_allocs <= 2 * solver_calls,
+        "[{robot}] {solver_allocs} allocations in {solver_calls} solves"
+    );
+    eprintln!("[{robot}] tick statuses: {statuses:?}");
+    assert!(
+        statuses.contains_key(&format!("{:?}", SafetyStatus::Filtered)),
+        "solver path exercised"
+    );
+    assert!(
+        statuses.contains_key(&format!("{:?}", SafetyStatus::Passthrough)),
+        "fast path exercised"
+    );
+    audit.finish();
+}
+
+#[test]
+fn control_tick_is_allocation_free() {
+    use crossym::config::Config;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let planar = Config::from_file(root.join("config/planar_dual_arm.toml"))
+        .unwrap()
+        .load_robot()
+        .unwrap();
+    audit_tick("planar", &planar.kinematics, 5);
+    if root.join("../shared/robots/rby1a/model.urdf").exists() {
+        let rby1 = Config::from_file(root.join("config/rby1.toml"))
+            .unwrap()
+            .load_robot()
+            .unwrap();
+        audit_tick("rby1", &rby1.kinematics, 6);
+    } else {
+        eprintln!("SKIP rby1 tick: ../shared/robots/rby1a/model.urdf absent");
+    }
+}
