@@ -235,6 +235,35 @@ mod tests {
     }
 
     #[test]
+    fn floating_base_conjugation_is_a_group_action() {
+        use nalgebra::{Translation3, UnitQuaternion, Vector3};
+        // Reflection-like base symmetry as a rotation by π about x, composed with the arm swap.
+        let xg = Isometry3::from_parts(
+            Translation3::identity(),
+            UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
+        );
+        let act = FloatingBaseAction {
+            base: xg,
+            joints: SignedPermutation::block_swap(&[1.0, -1.0]),
+        };
+        let base = Isometry3::from_parts(
+            Translation3::new(0.3, -0.2, 0.9),
+            UnitQuaternion::from_euler_angles(0.1, 0.2, 0.3),
+        );
+        let q = [0.1, 0.2, 0.3, 0.4];
+        let mut q1 = [0.0; 4];
+        let mut q2 = [0.0; 4];
+        let b1 = act.apply(&base, &q, &mut q1);
+        let b2 = act.apply(&b1, &q1, &mut q2);
+        // g² = e: applying twice returns the original base pose and joints (eq. 5 is an action).
+        assert!((b2.translation.vector - base.translation.vector).norm() < 1e-12);
+        assert!(b2.rotation.angle_to(&base.rotation) < 1e-12);
+        assert_eq!(q2, q);
+        // Conjugation keeps the base pose's rotation angle (an automorphism of SE(3)).
+        assert!((b1.rotation.angle() - base.rotation.angle()).abs() < 1e-12);
+    }
+
+    #[test]
     fn invalid_permutations_are_rejected() {
         assert!(SignedPermutation::new(vec![0, 0], vec![1.0, 1.0]).is_err());
         assert!(SignedPermutation::new(vec![0, 1], vec![1.0, 0.5]).is_err());
