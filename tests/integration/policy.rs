@@ -491,3 +491,29 @@ fn timing() {
         eprintln!("velocity n={n} hidden [256,256,256]: {us:.1} µs/call (checksum {acc:.3})");
     }
 }
+
+#[test]
+fn shipped_policy_loads_for_the_planar_robot() {
+    let path = crate::common::path("data/policies/pi_mrt_planar.safetensors");
+    let policy = crossym::policy::Policy::load(&path).expect("shipped policy loads");
+    let robot = crate::common::planar();
+    assert_eq!(policy.meta.joint_names, robot.kinematics.joint_names());
+    assert_eq!(policy.meta.robot, "planar_dual_arm");
+    let q0 = [0.785, -0.524, -0.393, -0.314, -0.785, 0.524, 0.393, 0.314];
+    let mut ws = policy.workspace();
+    let mut v = [0.0; 8];
+    for s in [
+        Condition::IDENTITY,
+        Condition {
+            theta: 1.0,
+            scale: 0.6,
+            reflection: -1,
+        },
+    ] {
+        policy.velocity(&q0, &s, &mut v, &mut ws);
+        assert!(
+            v.iter().all(|x| x.is_finite()) && v.iter().any(|x| x.abs() > 1e-6),
+            "{v:?}"
+        );
+    }
+}
