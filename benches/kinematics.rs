@@ -204,10 +204,10 @@ impl Rby1 {
         for q in &self.q_arm {
             self.left.jacobian(q, &mut ws);
             let (p, rot, jac) = k_eval(&self.k_left, &self.k_left_end, q);
-            for a in 0..3 {
-                dp = dp.max((ws.tip.translation.vector[a] - p[a]).abs());
-                for b in 0..3 {
-                    dr = dr.max((ws.tip.rotation.matrix()[(a, b)] - rot[a][b]).abs());
+            for (a, (pa, row)) in p.iter().zip(&rot).enumerate() {
+                dp = dp.max((ws.tip.translation.vector[a] - pa).abs());
+                for (b, rab) in row.iter().enumerate() {
+                    dr = dr.max((ws.tip.rotation.matrix()[(a, b)] - rab).abs());
                 }
             }
             for (c, col) in jac.iter().enumerate() {
@@ -236,12 +236,15 @@ impl Rby1 {
             ];
             for (s, (arm, end, qs)) in sides.into_iter().enumerate() {
                 let (p, _, jac) = k_eval(arm, end, qs);
-                for a in 0..3 {
-                    dp = dp.max((ws.x[3 * s + a] - p[a]).abs());
+                for (a, pa) in p.iter().enumerate() {
+                    dp = dp.max((ws.x[3 * s + a] - pa).abs());
                 }
+                // Rows 3s..3s+3 of the stacked Jacobian: k's position rows in the
+                // columns of arm s, zeros in the other arm's columns.
                 for c in 0..14 {
+                    let col = (c / 7 == s).then(|| &jac[c % 7]);
                     for r in 0..3 {
-                        let expect = if c / 7 == s { jac[c % 7][r] } else { 0.0 };
+                        let expect = col.map_or(0.0, |col| col[r]);
                         dj = dj.max((ws.jac[(3 * s + r, c)] - expect).abs());
                     }
                 }

@@ -14,6 +14,7 @@ use crate::data::letters::LetterTaskConfig;
 use crate::eval::EvalConfig;
 use crate::kinematics::{ChainSpec, Kinematics, KinematicsError, KinematicsSettings, RobotModel};
 use crate::policy::TrainConfig;
+use crate::ros::NodeConfig;
 use crate::symmetry::spec::{CheckConfig, CompositionConfig, SymmetryConfig};
 
 /// Errors while reading or validating a configuration file.
@@ -140,6 +141,9 @@ pub struct Config {
     /// Evaluation (`[eval]`).
     #[serde(default)]
     pub eval: EvalConfig,
+    /// The ROS 2 node (`[node]`).
+    #[serde(default)]
+    pub node: Option<NodeConfig>,
     /// Directory of the file, for resolving relative paths (not read from TOML).
     #[serde(skip)]
     pub base_dir: PathBuf,

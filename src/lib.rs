@@ -14,6 +14,7 @@
 //! - [`policy`]: the symmetry-conditioned policy `π(q, s) → q̇`: features, allocation-free
 //!   inference, CONDOR-style training (candle), safetensors + JSON persistence.
 //! - [`safety`]: the QP joint-limit safety filter (Clarabel).
+//! - [`ros`]: the ROS 2 node without DDS: message mirrors, `.msg` parser, control-tick core.
 //! - [`data`]: LASA letter demonstrations (CSV or original MAT v5 files) and a MAT v5 reader.
 
 #![warn(missing_docs)]
@@ -25,5 +26,6 @@ pub mod data;
 pub mod eval;
 pub mod kinematics;
 pub mod policy;
+pub mod ros;
 pub mod safety;
 pub mod symmetry;

@@ -10,5 +10,6 @@ mod eval;
 mod kinematics;
 mod lift_compose;
 mod policy;
+mod ros;
 mod safety;
 mod task_induced;

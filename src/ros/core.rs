@@ -1,0 +1,779 @@
+//! The node's logic without DDS: latest-value inputs, the control tick and the status.
+//!
+//! Inputs are validated on arrival: `/joint_states` is mapped by name onto the controlled
+//! joints (other joints — torso, head, wheels — are ignored) and rejected when a
+//! controlled joint is missing or duplicated, names and positions differ in length, a
+//! position is not finite, or the header stamp is stale; `~/symmetry_condition` is
+//! rejected unless `θ` is finite, `λ > 0` is finite and `σ = ±1`. A rejected message
+//! leaves the node's state untouched and is recorded (fixed-size [`Rejection`] + counts).
+//!
+//! Each tick at period `Δt`: with no joint state, or one older than the stale timeout,
+//! the command is zero velocity (velocity mode) or a hold of the last commanded position
+//! (position / trajectory mode). Otherwise `v = π(q, s)`, then the safety filter with
+//! `W = JᵀJ + εI` from the task Jacobian at `q`, then the command: `v`, or `q + v·Δt`
+//! clamped inside the position limits. Commands are always finite and inside the limits.
+//! The tick allocates, locks and logs nothing (buffers are sized at construction).
+
+use serde::{Deserialize, Serialize};
+
+use super::msg;
+use crate::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
+use crate::policy::{Policy, PolicyWorkspace};
+use crate::safety::{SafetyError, SafetyFilter, SafetySettings, SafetyStatus};
+use crate::symmetry::compose::Condition;
+
+/// What the node publishes on its command topic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputMode {
+    /// Joint velocities (rad/s) as Float64MultiArray (ForwardCommandController).
+    #[default]
+    Velocity,
+    /// Integrated joint positions `q + v·Δt` (rad) as Float64MultiArray.
+    Position,
+    /// A one-point JointTrajectory (positions and velocities, reached after `Δt`).
+    Trajectory,
+}
+
+/// Topic names (ROS syntax; `~/` is the node's private namespace).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TopicNames {
+    /// Joint-state input (sensor_msgs/JointState).
+    pub joint_states: String,
+    /// Condition input (crossym_msgs/SymmetryCondition).
+    pub symmetry_condition: String,
+    /// Command output (Float64MultiArray or JointTrajectory).
+    pub command: String,
+    /// Status output (crossym_msgs/Status).
+    pub status: String,
+}
+
+impl Default for TopicNames {
+    fn default() -> Self {
+        Self {
+            joint_states: "/joint_states".into(),
+            symmetry_condition: "~/symmetry_condition".into(),
+            command: "/forward_velocity_controller/commands".into(),
+            status: "~/status".into(),
+        }
+    }
+}
+
+/// `[node]`: the ROS 2 node's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NodeConfig {
+    /// Node name.
+    pub name: String,
+    /// Node namespace (`/` for the root).
+    pub namespace: String,
+    /// Control period `Δt` (s); overrides the safety filter's `dt`.
+    pub period_s: f64,
+    /// Joint states older than this (s) are stale: zero velocity / hold position.
+    pub stale_timeout_s: f64,
+    /// Reject joint states whose non-zero header stamp is older than the stale timeout.
+    pub check_stamps: bool,
+    /// Condition applied until a valid `symmetry_condition` arrives.
+    pub default_condition: Condition,
+    /// What the command topic carries.
+    pub output: OutputMode,
+    /// Topic names.
+    pub topics: TopicNames,
+}
+
+impl Default for NodeConfig {
+    fn default() -> Self {
+        Self {
+            name: "crossym".into(),
+            namespace: "/".into(),
+            period_s: 0.01,
+            stale_timeout_s: 0.1,
+            check_stamps: true,
+            default_condition: Condition::IDENTITY,
+            output: OutputMode::Velocity,
+            topics: TopicNames::default(),
+        }
+    }
+}
+
+impl NodeConfig {
+    /// Checks periods, timeout, names and the default condition; says what is wrong.
+    pub fn validate(&self) -> Result<(), NodeError> {
+        let bad = |field: &'static str, message: String| NodeError::Config { field, message };
+        if !(self.period_s.is_finite() && self.period_s > 0.0) {
+            return Err(bad(
+                "period_s",
+                format!("{} must be positive", self.period_s),
+            ));
+        }
+        if !(self.stale_timeout_s.is_finite() && self.stale_timeout_s >= self.period_s) {
+            return Err(bad(
+                "stale_timeout_s",
+                format!(
+                    "{} must be finite and at least period_s = {}",
+                    self.stale_timeout_s, self.period_s
+                ),
+            ));
+        }
+        if self.name.is_empty() {
+            return Err(bad("name", "must not be empty".into()));
+        }
+        if !self.namespace.starts_with('/') {
+            return Err(bad(
+                "namespace",
+                format!("`{}` must start with /", self.namespace),
+            ));
+        }
+        self.default_condition
+            .validate()
+            .map_err(|m| bad("default_condition", m))?;
+        Ok(())
+    }
+}
+
+/// Setup errors of the node.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NodeError {
+    /// A `[node]` setting is out of its domain.
+    #[error("invalid node setting `{field}`: {message}")]
+    Config {
+        /// Configuration key.
+        field: &'static str,
+        /// Why.
+        message: String,
+    },
+    /// The policy does not fit the robot's controlled joints.
+    #[error("policy does not fit the robot: {message}")]
+    Policy {
+        /// What differs.
+        message: String,
+    },
+    /// The safety filter could not be built.
+    #[error(transparent)]
+    Safety {
+        /// Filter error.
+        #[from]
+        source: SafetyError,
+    },
+}
+
+/// Why an input message was rejected (fixed size, no allocation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Rejection {
+    /// JointState `name` and `position` lengths differ.
+    LengthMismatch {
+        /// Number of names.
+        names: usize,
+        /// Number of positions.
+        positions: usize,
+    },
+    /// A controlled joint is not in the JointState.
+    MissingJoint {
+        /// Index in the controlled joint order.
+        joint: usize,
+    },
+    /// A controlled joint appears twice in the JointState.
+    DuplicateJoint {
+        /// Index in the controlled joint order.
+        joint: usize,
+    },
+    /// A controlled joint's position is NaN or infinite.
+    NonFinitePosition {
+        /// Index in the controlled joint order.
+        joint: usize,
+    },
+    /// The JointState's header stamp is older than the stale timeout.
+    StaleStamp,
+    /// The condition's `θ` is not finite.
+    InvalidTheta,
+    /// The condition's `λ` is not finite and positive.
+    InvalidScale,
+    /// The condition's `σ` is not ±1.
+    InvalidReflection {
+        /// The value received.
+        value: i8,
+    },
+}
+
+impl Rejection {
+    /// Short fixed description.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            Rejection::LengthMismatch { .. } => "joint_states: name and position lengths differ",
+            Rejection::MissingJoint { .. } => "joint_states: a controlled joint is missing",
+            Rejection::DuplicateJoint { .. } => "joint_states: a controlled joint appears twice",
+            Rejection::NonFinitePosition { .. } => "joint_states: non-finite position",
+            Rejection::StaleStamp => "joint_states: header stamp older than the stale timeout",
+            Rejection::InvalidTheta => "symmetry_condition: theta is not finite",
+            Rejection::InvalidScale => "symmetry_condition: scale must be finite and > 0",
+            Rejection::InvalidReflection { .. } => "symmetry_condition: reflection must be 1 or -1",
+        }
+    }
+
+    /// Full description naming the joint (allocates; for the status, off the tick).
+    pub fn explain(&self, joint_names: &[String]) -> String {
+        let name = |j: usize| joint_names.get(j).map_or("?", String::as_str);
+        match *self {
+            Rejection::LengthMismatch { names, positions } => {
+                format!("{} ({names} names, {positions} positions)", self.describe())
+            }
+            Rejection::MissingJoint { joint }
+            | Rejection::DuplicateJoint { joint }
+            | Rejection::NonFinitePosition { joint } => {
+                format!("{} (`{}`)", self.describe(), name(joint))
+            }
+            Rejection::InvalidReflection { value } => format!("{} (got {value})", self.describe()),
+            _ => self.describe().to_string(),
+        }
+    }
+}
+
+/// Status codes of `crossym_msgs/Status` (values equal the message's constants).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(i8)]
+#[non_exhaustive]
+pub enum StatusCode {
+    /// The (filtered) policy output was commanded.
+    NoWarning = 0,
+    /// The end-effector distance barrier shaped the command.
+    DecelerateForCollision = 3,
+    /// At least one joint's command sits on a bound.
+    JointBound = 5,
+    /// No joint state yet, or a stale one: zero velocity / hold.
+    StaleJointStates = 16,
+    /// The latest message on an input topic was rejected.
+    InvalidInput = 17,
+    /// The safety QP failed; the clamp of the policy output was commanded.
+    SafetyFallback = 18,
+    /// The policy returned non-finite velocities (replaced by 0).
+    PolicyNonfinite = 19,
+    /// Shutting down: the final zero / hold command was produced.
+    Shutdown = 20,
+}
+
+impl StatusCode {
+    /// The `Status.msg` constant name of this code.
+    pub fn constant_name(self) -> &'static str {
+        match self {
+            StatusCode::NoWarning => "NO_WARNING",
+            StatusCode::DecelerateForCollision => "DECELERATE_FOR_COLLISION",
+            StatusCode::JointBound => "JOINT_BOUND",
+            StatusCode::StaleJointStates => "STALE_JOINT_STATES",
+            StatusCode::InvalidInput => "INVALID_INPUT",
+            StatusCode::SafetyFallback => "SAFETY_FALLBACK",
+            StatusCode::PolicyNonfinite => "POLICY_NONFINITE",
+            StatusCode::Shutdown => "SHUTDOWN",
+        }
+    }
+
+    /// The code's value in `Status.code`.
+    pub fn value(self) -> i8 {
+        self as i8
+    }
+
+    /// Every code, for table checks.
+    pub const ALL: [StatusCode; 8] = [
+        StatusCode::NoWarning,
+        StatusCode::DecelerateForCollision,
+        StatusCode::JointBound,
+        StatusCode::StaleJointStates,
+        StatusCode::InvalidInput,
+        StatusCode::SafetyFallback,
+        StatusCode::PolicyNonfinite,
+        StatusCode::Shutdown,
+    ];
+
+    /// Human-readable text of the code.
+    pub fn message(self) -> &'static str {
+        match self {
+            StatusCode::NoWarning => "ok",
+            StatusCode::DecelerateForCollision => "end-effector distance barrier active",
+            StatusCode::JointBound => "joint command on a velocity/acceleration/position bound",
+            StatusCode::StaleJointStates => "no recent joint state: zero velocity / hold",
+            StatusCode::InvalidInput => "latest input message rejected (see last_error)",
+            StatusCode::SafetyFallback => "safety QP failed: clamped policy output",
+            StatusCode::PolicyNonfinite => "policy output not finite: replaced by 0",
+            StatusCode::Shutdown => "shutting down: final zero/hold command",
+        }
+    }
+}
+
+/// One command, sized for the controlled joints (reused every tick).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Command {
+    /// What the command carries.
+    pub mode: OutputMode,
+    /// Joint velocities (rad/s or m/s); zero when stale.
+    pub velocities: Vec<f64>,
+    /// Joint positions (rad or m): `q + v·Δt` clamped to the limits, or the hold position.
+    pub positions: Vec<f64>,
+}
+
+impl Command {
+    /// The Float64MultiArray payload: velocities (velocity mode) or positions (rad/s or rad).
+    pub fn data(&self) -> &[f64] {
+        match self.mode {
+            OutputMode::Velocity => &self.velocities,
+            OutputMode::Position | OutputMode::Trajectory => &self.positions,
+        }
+    }
+
+    /// As a Float64MultiArray for ForwardCommandController (allocates).
+    pub fn to_float64_multi_array(&self) -> msg::Float64MultiArray {
+        msg::Float64MultiArray {
+            layout: msg::MultiArrayLayout::default(),
+            data: self.data().to_vec(),
+        }
+    }
+
+    /// As a one-point JointTrajectory reached after `dt` (s) (allocates).
+    pub fn to_joint_trajectory(&self, joint_names: &[String], dt: f64) -> msg::JointTrajectory {
+        msg::JointTrajectory {
+            header: msg::Header::default(),
+            joint_names: joint_names.to_vec(),
+            points: vec![msg::JointTrajectoryPoint {
+                positions: self.positions.clone(),
+                velocities: self.velocities.clone(),
+                accelerations: Vec::new(),
+                effort: Vec::new(),
+                time_from_start: msg::Duration::from_secs_f64(dt),
+            }],
+        }
+    }
+}
+
+/// What one tick did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickReport {
+    /// Status code of this tick.
+    pub code: StatusCode,
+    /// False when there is nothing safe to publish (position mode before any joint state).
+    pub publish: bool,
+    /// Safety filter status; `None` when the policy was not evaluated (stale).
+    pub safety: Option<SafetyStatus>,
+    /// Joints on a bound (count).
+    pub active_constraints: u32,
+}
+
+/// Snapshot of the node for the Status message (no allocation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StatusSnapshot {
+    /// Code of the last tick.
+    pub code: StatusCode,
+    /// Text of the code.
+    pub message: &'static str,
+    /// Last rejected input, if any since start.
+    pub last_error: Option<Rejection>,
+    /// Joints on a bound in the last tick (count).
+    pub active_constraints: u32,
+    /// Rejected joint_states messages (count).
+    pub rejected_joint_states: u32,
+    /// Rejected symmetry_condition messages (count).
+    pub rejected_conditions: u32,
+    /// Ticks since start (count).
+    pub ticks: u64,
+    /// Stale ticks since start (count).
+    pub stale_ticks: u64,
+    /// Age of the joint state at the last tick (s); negative when none.
+    pub joint_state_age_s: f64,
+    /// Duration of the last tick (µs), as recorded by the caller.
+    pub tick_time_us: f64,
+    /// Maximum recorded tick duration (µs).
+    pub tick_time_max_us: f64,
+    /// Condition of the last tick.
+    pub condition: Condition,
+}
+
+impl StatusSnapshot {
+    /// As a Status message stamped `stamp` (allocates; off the tick).
+    pub fn to_msg(&self, stamp: msg::Time, joint_names: &[String]) -> msg::Status {
+        let header = msg::Header {
+            stamp,
+            frame_id: String::new(),
+        };
+        msg::Status {
+            header: header.clone(),
+            code: self.code as i8,
+            message: self.message.to_string(),
+            last_error: self
+                .last_error
+                .map(|r| r.explain(joint_names))
+                .unwrap_or_default(),
+            active_constraints: self.active_constraints,
+            rejected_joint_states: self.rejected_joint_states,
+            rejected_conditions: self.rejected_conditions,
+            ticks: self.ticks,
+            stale_ticks: self.stale_ticks,
+            joint_state_age_s: self.joint_state_age_s,
+            tick_time_us: self.tick_time_us,
+            tick_time_max_us: self.tick_time_max_us,
+            condition: msg::SymmetryCondition {
+                header,
+                theta: self.condition.theta,
+                scale: self.condition.scale,
+                reflection: self.condition.reflection,
+            },
+        }
+    }
+}
+
+/// The node's logic: latest inputs, the control tick, the status. See the module docs.
+pub struct NodeCore {
+    cfg: NodeConfig,
+    kin: Kinematics,
+    kws: KinematicsWorkspace,
+    policy: Policy,
+    pws: PolicyWorkspace,
+    filter: SafetyFilter,
+    limits: Vec<JointLimits>,
+    n: usize,
+    // Latest valid joint state.
+    q: Vec<f64>,
+    state_time_s: Option<f64>,
+    // Scratch: message index of each controlled joint.
+    map: Vec<usize>,
+    v_policy: Vec<f64>,
+    v_safe: Vec<f64>,
+    zeros: Vec<f64>,
+    // Last commanded position (hold target).
+    q_hold: Vec<f64>,
+    has_hold: bool,
+    condition: Condition,
+    // Status.
+    code: StatusCode,
+    last_error: Option<Rejection>,
+    joint_state_rejected: bool,
+    condition_rejected: bool,
+    rejected_joint_states: u32,
+    rejected_conditions: u32,
+    ticks: u64,
+    stale_ticks: u64,
+    active: u32,
+    age_s: f64,
+    tick_time_us: f64,
+    tick_time_max_us: f64,
+}
+
+impl NodeCore {
+    /// Builds the node for `kin`'s controlled joints; the safety filter's `dt` is set to
+    /// `cfg.period_s`. The policy must have `kin.dof()` joints (and, if it names them,
+    /// the same names in the same order).
+    pub fn new(
+        kin: Kinematics,
+        policy: Policy,
+        safety: SafetySettings,
+        cfg: NodeConfig,
+    ) -> Result<Self, NodeError> {
+        cfg.validate()?;
+        let n = kin.dof();
+        if policy.dim() != n {
+            return Err(NodeError::Policy {
+                message: format!("policy has {} joints, robot controls {n}", policy.dim()),
+            });
+        }
+        let names = &policy.meta.joint_names;
+        if !names.is_empty() && names.as_slice() != kin.joint_names() {
+            return Err(NodeError::Policy {
+                message: format!(
+                    "policy joints {:?} differ from the robot's {:?}",
+                    names,
+                    kin.joint_names()
+                ),
+            });
+        }
+        let limits = kin.limits().to_vec();
+        let filter = SafetyFilter::new(
+            &limits,
+            SafetySettings {
+                dt: cfg.period_s,
+                ..safety
+            },
+        )?;
+        let kws = kin.workspace();
+        let pws = policy.workspace();
+        let condition = cfg.default_condition;
+        Ok(Self {
+            kin,
+            kws,
+            pws,
+            policy,
+            filter,
+            limits,
+            n,
+            q: vec![0.0; n],
+            state_time_s: None,
+            map: vec![usize::MAX; n],
+            v_policy: vec![0.0; n],
+            v_safe: vec![0.0; n],
+            zeros: vec![0.0; n],
+            q_hold: vec![0.0; n],
+            has_hold: false,
+            condition,
+            code: StatusCode::StaleJointStates,
+            last_error: None,
+            joint_state_rejected: false,
+            condition_rejected: false,
+            rejected_joint_states: 0,
+            rejected_conditions: 0,
+            ticks: 0,
+            stale_ticks: 0,
+            active: 0,
+            age_s: -1.0,
+            tick_time_us: 0.0,
+            tick_time_max_us: 0.0,
+            cfg,
+        })
+    }
+
+    /// The node's settings.
+    pub fn config(&self) -> &NodeConfig {
+        &self.cfg
+    }
+
+    /// Controlled joint names, the order of every command.
+    pub fn joint_names(&self) -> &[String] {
+        self.kin.joint_names()
+    }
+
+    /// Controlled joint limits (rad, rad/s, rad/s²).
+    pub fn limits(&self) -> &[JointLimits] {
+        &self.limits
+    }
+
+    /// The condition currently applied.
+    pub fn condition(&self) -> Condition {
+        self.condition
+    }
+
+    /// The latest valid joint positions (rad) and their receipt time (s), if any.
+    pub fn joint_state(&self) -> Option<(&[f64], f64)> {
+        self.state_time_s.map(|t| (self.q.as_slice(), t))
+    }
+
+    /// A command buffer sized for this node (allocate once).
+    pub fn command(&self) -> Command {
+        Command {
+            mode: self.cfg.output,
+            velocities: vec![0.0; self.n],
+            positions: vec![0.0; self.n],
+        }
+    }
+
+    fn reject_joint_state(&mut self, r: Rejection) -> Result<(), Rejection> {
+        self.joint_state_rejected = true;
+        self.rejected_joint_states = self.rejected_joint_states.saturating_add(1);
+        self.last_error = Some(r);
+        Err(r)
+    }
+
+    /// Accepts a JointState received at `now_s` (s) or says why not; allocation-free.
+    pub fn on_joint_state(&mut self, m: &msg::JointState, now_s: f64) -> Result<(), Rejection> {
+        if m.name.len() != m.position.len() {
+            return self.reject_joint_state(Rejection::LengthMismatch {
+                names: m.name.len(),
+                positions: m.position.len(),
+            });
+        }
+        if self.cfg.check_stamps && !m.header.stamp.is_zero() {
+            let age = now_s - m.header.stamp.as_secs_f64();
+            if age.is_nan() || age > self.cfg.stale_timeout_s {
+                return self.reject_joint_state(Rejection::StaleStamp);
+            }
+        }
+        self.map.fill(usize::MAX);
+        for (k, name) in m.name.iter().enumerate() {
+            if let Some(j) = self.kin.joint_names().iter().position(|c| c == name) {
+                if self.map[j] != usize::MAX {
+                    return self.reject_joint_state(Rejection::DuplicateJoint { joint: j });
+                }
+                self.map[j] = k;
+            }
+        }
+        for j in 0..self.n {
+            let k = self.map[j];
+            if k == usize::MAX {
+                return self.reject_joint_state(Rejection::MissingJoint { joint: j });
+            }
+            if !m.position[k].is_finite() {
+                return self.reject_joint_state(Rejection::NonFinitePosition { joint: j });
+            }
+        }
+        for j in 0..self.n {
+            self.q[j] = m.position[self.map[j]];
+        }
+        self.state_time_s = Some(now_s);
+        self.joint_state_rejected = false;
+        Ok(())
+    }
+
+    /// Accepts a SymmetryCondition or says why not (the previous one stays); allocation-free.
+    pub fn on_condition(&mut self, m: &msg::SymmetryCondition) -> Result<(), Rejection> {
+        let r = if !m.theta.is_finite() {
+            Some(Rejection::InvalidTheta)
+        } else if !(m.scale.is_finite() && m.scale > 0.0) {
+            Some(Rejection::InvalidScale)
+        } else if !(m.reflection == 1 || m.reflection == -1) {
+            Some(Rejection::InvalidReflection {
+                value: m.reflection,
+            })
+        } else {
+            None
+        };
+        if let Some(r) = r {
+            self.condition_rejected = true;
+            self.rejected_conditions = self.rejected_conditions.saturating_add(1);
+            self.last_error = Some(r);
+            return Err(r);
+        }
+        self.condition = Condition {
+            theta: m.theta,
+            scale: m.scale,
+            reflection: m.reflection,
+        };
+        self.condition_rejected = false;
+        Ok(())
+    }
+
+    /// Fills `out` with the zero / hold command; false when there is nothing to hold.
+    fn hold(&mut self, out: &mut Command) -> bool {
+        out.mode = self.cfg.output;
+        out.velocities.fill(0.0);
+        self.filter.reset(&self.zeros);
+        if !self.has_hold && self.state_time_s.is_some() {
+            for j in 0..self.n {
+                self.q_hold[j] = clamp_to(&self.limits[j], self.q[j]);
+            }
+            self.has_hold = true;
+        }
+        out.positions.copy_from_slice(&self.q_hold);
+        self.has_hold || self.cfg.output == OutputMode::Velocity
+    }
+
+    /// One control tick at time `now_s` (s) into `out`; allocation-free. See the module docs.
+    pub fn tick(&mut self, now_s: f64, out: &mut Command) -> TickReport {
+        self.ticks = self.ticks.saturating_add(1);
+        let fresh = match self.state_time_s {
+            Some(t) => {
+                self.age_s = now_s - t;
+                self.age_s <= self.cfg.stale_timeout_s
+            }
+            None => {
+                self.age_s = -1.0;
+                false
+            }
+        };
+        if !fresh {
+            self.stale_ticks = self.stale_ticks.saturating_add(1);
+            let publish = self.hold(out);
+            self.code = StatusCode::StaleJointStates;
+            self.active = 0;
+            return TickReport {
+                code: self.code,
+                publish,
+                safety: None,
+                active_constraints: 0,
+            };
+        }
+        self.policy
+            .velocity(&self.q, &self.condition, &mut self.v_policy, &mut self.pws);
+        self.kin.jacobian(&self.q, &mut self.kws);
+        let jac = if self.kws.jac.iter().all(|x| x.is_finite()) {
+            Some(&self.kws.jac)
+        } else {
+            None
+        };
+        let report = self
+            .filter
+            .filter(&self.q, &self.v_policy, jac, None, &mut self.v_safe);
+        out.mode = self.cfg.output;
+        let dt = self.cfg.period_s;
+        let mut finite = true;
+        for j in 0..self.n {
+            let v = self.v_safe[j];
+            let p = clamp_to(&self.limits[j], self.q[j] + v * dt);
+            finite &= v.is_finite() && p.is_finite();
+            out.velocities[j] = v;
+            out.positions[j] = p;
+        }
+        if !finite {
+            // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
+            let publish = self.hold(out);
+            self.code = StatusCode::SafetyFallback;
+            self.active = 0;
+            return TickReport {
+                code: self.code,
+                publish,
+                safety: Some(report.status),
+                active_constraints: 0,
+            };
+        }
+        self.q_hold.copy_from_slice(&out.positions);
+        self.has_hold = true;
+        self.active = report.active;
+        self.code = if self.joint_state_rejected || self.condition_rejected {
+            StatusCode::InvalidInput
+        } else if report.status == SafetyStatus::Fallback {
+            StatusCode::SafetyFallback
+        } else if report.policy_nonfinite {
+            StatusCode::PolicyNonfinite
+        } else if report.active > 0 {
+            StatusCode::JointBound
+        } else {
+            StatusCode::NoWarning
+        };
+        TickReport {
+            code: self.code,
+            publish: true,
+            safety: Some(report.status),
+            active_constraints: report.active,
+        }
+    }
+
+    /// The final command on shutdown (zero velocity / hold position) into `out`; false
+    /// when there is nothing to hold (position mode before any joint state).
+    pub fn shutdown_command(&mut self, out: &mut Command) -> bool {
+        self.code = StatusCode::Shutdown;
+        self.hold(out)
+    }
+
+    /// Records the caller-measured duration of the last tick (µs).
+    pub fn record_tick_time(&mut self, us: f64) {
+        if us.is_finite() {
+            self.tick_time_us = us;
+            self.tick_time_max_us = self.tick_time_max_us.max(us);
+        }
+    }
+
+    /// Snapshot for the Status message.
+    pub fn status(&self) -> StatusSnapshot {
+        StatusSnapshot {
+            code: self.code,
+            message: self.code.message(),
+            last_error: self.last_error,
+            active_constraints: self.active,
+            rejected_joint_states: self.rejected_joint_states,
+            rejected_conditions: self.rejected_conditions,
+            ticks: self.ticks,
+            stale_ticks: self.stale_ticks,
+            joint_state_age_s: self.age_s,
+            tick_time_us: self.tick_time_us,
+            tick_time_max_us: self.tick_time_max_us,
+            condition: self.condition,
+        }
+    }
+}
+
+/// Clamps `x` into `[lower, upper]` (infinite limits bound nothing; NaN stays NaN).
+fn clamp_to(l: &JointLimits, x: f64) -> f64 {
+    let mut y = x;
+    if y > l.upper {
+        y = l.upper;
+    }
+    if y < l.lower {
+        y = l.lower;
+    }
+    y
+}

@@ -1,0 +1,599 @@
+//! The ROS 2 node without DDS: message mirrors against the shipped `.msg` files and
+//! serde's field order, the `.msg` parser, and `NodeCore` on good and bad inputs.
+
+use std::path::Path;
+
+use crossym::kinematics::JointLimits;
+use crossym::policy::{MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
+use crossym::ros::msg::{self, RosMessage};
+use crossym::ros::{
+    ArrayKind, Command, MsgDef, NodeConfig, NodeCore, OutputMode, Rejection, StatusCode,
+};
+use crossym::safety::SafetySettings;
+use crossym::symmetry::compose::Condition;
+use serde::de::{Deserializer as _, IgnoredAny, MapAccess, Visitor};
+
+use crate::common;
+
+// ---------------------------------------------------------------- messages
+
+fn msg_file(name: &str) -> MsgDef {
+    let p = common::root().join("msgs/msg").join(name);
+    let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    MsgDef::parse(&text).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// Top-level keys of a JSON object in the order they appear in the text.
+fn key_order(json: &str) -> Vec<String> {
+    struct Keys;
+    impl<'de> Visitor<'de> for Keys {
+        type Value = Vec<String>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("an object")
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut m: A) -> Result<Self::Value, A::Error> {
+            let mut keys = Vec::new();
+            while let Some((k, IgnoredAny)) = m.next_entry::<String, IgnoredAny>()? {
+                keys.push(k);
+            }
+            Ok(keys)
+        }
+    }
+    let mut de = serde_json::Deserializer::from_str(json);
+    (&mut de).deserialize_map(Keys).unwrap()
+}
+
+/// Checks the field table against serde's order and the JSON kind of each value.
+fn check_serde<T: RosMessage + serde::Serialize + Default>() {
+    let json = serde_json::to_string(&T::default()).unwrap();
+    let keys = key_order(&json);
+    let names: Vec<&str> = T::FIELDS.iter().map(|f| f.0).collect();
+    assert_eq!(
+        keys,
+        names,
+        "{}: serde order differs from FIELDS",
+        T::ROS_TYPE
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    for (name, ty) in T::FIELDS {
+        let val = &v[*name];
+        let ty = crossym::ros::FieldType::parse(ty).unwrap();
+        let ok = if ty.array != ArrayKind::Scalar {
+            val.is_array()
+        } else if ty.base.starts_with("string") {
+            val.is_string()
+        } else if ty.is_primitive() {
+            val.is_number()
+        } else {
+            val.is_object()
+        };
+        assert!(ok, "{}.{name}: {ty} but serde wrote {val}", T::ROS_TYPE);
+    }
+    // The DDS type name follows the ROS type.
+    let parts: Vec<&str> = T::ROS_TYPE.split('/').collect();
+    assert_eq!(parts.len(), 3);
+    assert_eq!(
+        T::TYPE_NAME,
+        format!("{}::msg::dds_::{}_", parts[0], parts[2]),
+        "{}",
+        T::ROS_TYPE
+    );
+}
+
+#[test]
+fn message_tables_follow_serde_order() {
+    check_serde::<msg::Time>();
+    check_serde::<msg::Duration>();
+    check_serde::<msg::Header>();
+    check_serde::<msg::JointState>();
+    check_serde::<msg::MultiArrayDimension>();
+    check_serde::<msg::MultiArrayLayout>();
+    check_serde::<msg::Float64MultiArray>();
+    check_serde::<msg::JointTrajectoryPoint>();
+    check_serde::<msg::JointTrajectory>();
+    check_serde::<msg::SymmetryCondition>();
+    check_serde::<msg::Status>();
+    assert_eq!(
+        msg::JointState::TYPE_NAME,
+        "sensor_msgs::msg::dds_::JointState_"
+    );
+}
+
+fn check_against_msg<T: RosMessage>(file: &str) -> MsgDef {
+    let def = msg_file(file);
+    let from_file: Vec<(String, String)> = def
+        .fields
+        .iter()
+        .map(|f| (f.name.clone(), f.ty.to_string()))
+        .collect();
+    let from_rust: Vec<(String, String)> = T::FIELDS
+        .iter()
+        .map(|(n, t)| (n.to_string(), t.to_string()))
+        .collect();
+    assert_eq!(
+        from_rust, from_file,
+        "{file}: Rust table differs from the .msg"
+    );
+    for f in &def.fields {
+        assert!(
+            !f.comment.is_empty(),
+            "{file}: field {} is undocumented",
+            f.name
+        );
+    }
+    for c in &def.constants {
+        assert!(
+            !c.comment.is_empty(),
+            "{file}: constant {} is undocumented",
+            c.name
+        );
+    }
+    def
+}
+
+#[test]
+fn rust_types_match_msg_files() {
+    check_against_msg::<msg::SymmetryCondition>("SymmetryCondition.msg");
+    let status = check_against_msg::<msg::Status>("Status.msg");
+    // Every Rust status code is a constant of the message with the same value.
+    for code in StatusCode::ALL {
+        let c = status
+            .constant(code.constant_name())
+            .unwrap_or_else(|| panic!("Status.msg lacks {}", code.constant_name()));
+        assert_eq!(c.ty.base, "int8");
+        assert_eq!(c.value.parse::<i8>().unwrap(), code.value(), "{}", c.name);
+    }
+    // MoveIt Servo's codes keep their values.
+    for (name, v) in [
+        ("NO_WARNING", 0),
+        ("DECELERATE_FOR_APPROACHING_SINGULARITY", 1),
+        ("HALT_FOR_SINGULARITY", 2),
+        ("DECELERATE_FOR_COLLISION", 3),
+        ("HALT_FOR_COLLISION", 4),
+        ("JOINT_BOUND", 5),
+    ] {
+        assert_eq!(
+            status.constant(name).unwrap().value,
+            v.to_string(),
+            "{name}"
+        );
+    }
+    let mut values: Vec<&str> = status.constants.iter().map(|c| c.value.as_str()).collect();
+    values.sort();
+    values.dedup();
+    assert_eq!(
+        values.len(),
+        status.constants.len(),
+        "duplicate status values"
+    );
+}
+
+#[test]
+fn msgs_package_lists_every_message() {
+    let root = common::root().join("msgs");
+    let cmake = std::fs::read_to_string(root.join("CMakeLists.txt")).unwrap();
+    let pkg = std::fs::read_to_string(root.join("package.xml")).unwrap();
+    assert!(pkg.contains("<name>crossym_msgs</name>"));
+    assert!(pkg.contains("<package format=\"3\">"));
+    assert!(pkg.contains("<member_of_group>rosidl_interface_packages</member_of_group>"));
+    assert!(cmake.contains("rosidl_generate_interfaces"));
+    let mut n = 0;
+    for e in std::fs::read_dir(root.join("msg")).unwrap() {
+        let name = e.unwrap().file_name().into_string().unwrap();
+        if name.ends_with(".msg") {
+            n += 1;
+            assert!(
+                cmake.contains(&format!("\"msg/{name}\"")),
+                "{name} not generated"
+            );
+        }
+    }
+    assert_eq!(n, 2);
+}
+
+#[test]
+fn msgdef_parser_handles_the_idl_subset() {
+    let text = "\
+# header comment
+
+# doc of A
+int8 A = 3  # trailing
+string S=has # inside
+float64[] xs   # unbounded
+int32[4] fixed
+string<=8[<=2] names
+geometry_msgs/Point p
+uint8 level 7 # default
+";
+    let d = MsgDef::parse(text).unwrap();
+    assert_eq!(d.constants.len(), 2);
+    assert_eq!(d.constants[0].value, "3");
+    assert_eq!(d.constants[0].comment, "doc of A\ntrailing");
+    assert_eq!(d.constants[1].value, "has # inside");
+    let tys: Vec<String> = d.fields.iter().map(|f| f.ty.to_string()).collect();
+    assert_eq!(
+        tys,
+        [
+            "float64[]",
+            "int32[4]",
+            "string<=8[<=2]",
+            "geometry_msgs/Point",
+            "uint8"
+        ]
+    );
+    assert_eq!(d.fields[1].ty.array, ArrayKind::Fixed(4));
+    assert_eq!(d.fields[2].ty.array, ArrayKind::Bounded(2));
+    assert_eq!(d.fields[4].default.as_deref(), Some("7"));
+    assert!(!d.fields[3].ty.is_primitive());
+    for bad in [
+        "float64",
+        "float64[ x",
+        "int8 9x",
+        "float64 CamelCase",
+        "int8 A =",
+    ] {
+        assert!(MsgDef::parse(bad).is_err(), "`{bad}` accepted");
+    }
+}
+
+#[test]
+fn node_config_parses_inside_config() {
+    let base = std::fs::read_to_string(common::root().join("config/planar_dual_arm.toml")).unwrap();
+    let text = format!(
+        "{base}\n[node]\nname = \"drawer\"\nperiod_s = 0.005\noutput = \"position\"\n\
+         default_condition = {{ theta = 0.5, scale = 0.8, reflection = -1 }}\n\
+         [node.topics]\ncommand = \"/forward_position_controller/commands\"\n"
+    );
+    let cfg = crossym::config::Config::from_toml_str(&text, Path::new("x.toml")).unwrap();
+    let node = cfg.node.unwrap();
+    assert_eq!(node.name, "drawer");
+    assert_eq!(node.output, OutputMode::Position);
+    assert_eq!(node.default_condition.reflection, -1);
+    assert_eq!(node.topics.joint_states, "/joint_states");
+    assert!(node.validate().is_ok());
+    let bad = format!("{base}\n[node]\nperiodd = 1\n");
+    assert!(crossym::config::Config::from_toml_str(&bad, Path::new("x.toml")).is_err());
+    let mut n = NodeConfig::default();
+    n.default_condition.reflection = 2;
+    assert!(n.validate().is_err());
+    n = NodeConfig {
+        stale_timeout_s: 0.001,
+        ..NodeConfig::default()
+    };
+    assert!(n.validate().is_err());
+}
+
+// ---------------------------------------------------------------- node core
+
+/// A small deterministic policy for the planar dual arm (8 joints, one tanh layer),
+/// with `bias` added to the output layer (rad/s).
+fn policy(n: usize, bias: &[f64]) -> Policy {
+    let spec = MlpSpec {
+        input: n + 4,
+        hidden: vec![6],
+        output: n,
+        activation: Default::default(),
+    };
+    let w0: Vec<f64> = (0..6 * (n + 4))
+        .map(|k| 0.3 * (k as f64 * 0.7).sin())
+        .collect();
+    let w1: Vec<f64> = (0..n * 6).map(|k| 0.05 * (k as f64 * 1.3).cos()).collect();
+    let mlp = MlpInference::new(spec, vec![w0, w1], vec![vec![0.01; 6], bias.to_vec()]).unwrap();
+    Policy::new(Normalizer::identity(n), mlp, PolicyMeta::default()).unwrap()
+}
+
+fn node(output: OutputMode, bias: Option<&[f64]>) -> NodeCore {
+    let robot = common::planar();
+    let n = robot.kinematics.dof();
+    let zero = vec![0.0; n];
+    let p = policy(n, bias.unwrap_or(&zero));
+    let cfg = NodeConfig {
+        output,
+        ..NodeConfig::default()
+    };
+    NodeCore::new(robot.kinematics, p, SafetySettings::default(), cfg).unwrap()
+}
+
+/// A JointState with the controlled joints at `q` plus a torso joint, stamped `t` (s).
+fn joint_state(core: &NodeCore, q: &[f64], t: f64) -> msg::JointState {
+    let mut name = vec!["torso_0".to_string()];
+    name.extend(core.joint_names().iter().rev().cloned());
+    let mut position = vec![123.0];
+    position.extend(q.iter().rev());
+    msg::JointState {
+        header: msg::Header {
+            stamp: msg::Time::from_secs_f64(t),
+            frame_id: String::new(),
+        },
+        name,
+        position,
+        velocity: vec![],
+        effort: vec![],
+    }
+}
+
+fn assert_safe(core: &NodeCore, cmd: &Command) {
+    for (j, l) in core.limits().iter().enumerate() {
+        let (v, p) = (cmd.velocities[j], cmd.positions[j]);
+        assert!(v.is_finite() && p.is_finite(), "joint {j}: v {v} p {p}");
+        assert!(v.abs() <= l.velocity + 1e-12, "joint {j}: v {v}");
+        if cmd.mode != OutputMode::Velocity {
+            assert!(p >= l.lower && p <= l.upper, "joint {j}: p {p}");
+        }
+    }
+}
+
+const Q0: [f64; 8] = [0.5, 0.8, 0.6, 0.4, -0.5, -0.8, -0.6, -0.4];
+
+#[test]
+fn happy_path_follows_the_policy_far_from_limits() {
+    let mut core = node(OutputMode::Velocity, None);
+    let mut cmd = core.command();
+    // No state yet: zero velocity, stale.
+    let r = core.tick(0.0, &mut cmd);
+    assert_eq!(r.code, StatusCode::StaleJointStates);
+    assert!(r.publish);
+    assert!(cmd.velocities.iter().all(|&v| v == 0.0));
+
+    let reference = policy(8, &[0.0; 8]);
+    let mut ws = reference.workspace();
+    let mut expect = vec![0.0; 8];
+    let mut q = Q0.to_vec();
+    for k in 1..=50 {
+        let t = k as f64 * 0.01;
+        core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
+        let r = core.tick(t, &mut cmd);
+        assert!(r.publish);
+        assert_eq!(r.code, StatusCode::NoWarning, "tick {k}");
+        reference.velocity(&q, &Condition::IDENTITY, &mut expect, &mut ws);
+        assert_eq!(
+            cmd.velocities, expect,
+            "tick {k}: fast path must return π(q, s)"
+        );
+        assert!(expect.iter().any(|v| v.abs() > 1e-3));
+        assert_safe(&core, &cmd);
+        for (qj, v) in q.iter_mut().zip(&cmd.velocities) {
+            *qj += 0.01 * v;
+        }
+    }
+    // The condition changes the policy input.
+    core.on_condition(&msg::SymmetryCondition {
+        theta: 0.5,
+        scale: 0.8,
+        reflection: -1,
+        ..Default::default()
+    })
+    .unwrap();
+    core.on_joint_state(&joint_state(&core, &q, 0.6), 0.6)
+        .unwrap();
+    core.tick(0.6, &mut cmd);
+    let s = Condition {
+        theta: 0.5,
+        scale: 0.8,
+        reflection: -1,
+    };
+    reference.velocity(&q, &s, &mut expect, &mut ws);
+    assert_eq!(cmd.velocities, expect);
+    let st = core.status();
+    assert_eq!(st.condition, s);
+    assert_eq!(st.ticks, 52);
+    assert_eq!(st.stale_ticks, 1);
+    core.record_tick_time(12.0);
+    core.record_tick_time(7.0);
+    let m = core
+        .status()
+        .to_msg(msg::Time::from_secs_f64(0.6), core.joint_names());
+    assert_eq!((m.tick_time_us, m.tick_time_max_us), (7.0, 12.0));
+    assert_eq!(m.code, 0);
+    assert_eq!(m.condition.reflection, -1);
+    assert!(m.last_error.is_empty());
+}
+
+#[test]
+fn bad_joint_states_are_rejected_without_corrupting_state() {
+    let mut core = node(OutputMode::Velocity, None);
+    let mut cmd = core.command();
+    core.on_joint_state(&joint_state(&core, &Q0, 0.0), 0.0)
+        .unwrap();
+    let good: Vec<f64> = core.joint_state().unwrap().0.to_vec();
+    assert_eq!(good, Q0);
+
+    let t = 0.01;
+    let mut nan = joint_state(&core, &Q0, t);
+    nan.position[3] = f64::NAN;
+    let mut inf = joint_state(&core, &Q0, t);
+    inf.position[1] = f64::NEG_INFINITY;
+    let mut missing = joint_state(&core, &Q0, t);
+    missing.name.remove(2);
+    missing.position.remove(2);
+    let mut mismatch = joint_state(&core, &Q0, t);
+    mismatch.position.pop();
+    let mut dup = joint_state(&core, &Q0, t);
+    dup.name[0] = dup.name[1].clone();
+    let stale = joint_state(&core, &Q0, t - 1.0);
+    // Messages list the controlled joints in reverse after `torso_0`: index k ↔ joint 8 − k.
+    let cases = [
+        (nan, Rejection::NonFinitePosition { joint: 5 }),
+        (inf, Rejection::NonFinitePosition { joint: 7 }),
+        (missing, Rejection::MissingJoint { joint: 6 }),
+        (
+            mismatch,
+            Rejection::LengthMismatch {
+                names: 9,
+                positions: 8,
+            },
+        ),
+        (dup, Rejection::DuplicateJoint { joint: 7 }),
+        (stale, Rejection::StaleStamp),
+    ];
+    for (k, (m, expect)) in cases.iter().enumerate() {
+        let r = core.on_joint_state(m, t).unwrap_err();
+        assert_eq!(r, *expect, "case {k}");
+        assert_eq!(core.joint_state().unwrap().0, good.as_slice(), "case {k}");
+        assert_eq!(core.joint_state().unwrap().1, 0.0);
+        let rep = core.tick(t, &mut cmd);
+        assert_eq!(rep.code, StatusCode::InvalidInput, "case {k}");
+        assert_safe(&core, &cmd);
+        let st = core.status();
+        assert_eq!(st.last_error, Some(r));
+        assert_eq!(st.rejected_joint_states, k as u32 + 1);
+        let text = st
+            .to_msg(msg::Time::default(), core.joint_names())
+            .last_error;
+        assert!(text.starts_with("joint_states"), "{text}");
+    }
+    // The missing joint is named in the status text.
+    let s = Rejection::MissingJoint { joint: 2 }.explain(core.joint_names());
+    assert!(s.contains(&core.joint_names()[2]), "{s}");
+    // Unknown extra names are ignored; a valid message clears INVALID_INPUT.
+    let mut extra = joint_state(&core, &Q0, 0.02);
+    extra.name.push("head_0".into());
+    extra.position.push(f64::NAN);
+    core.on_joint_state(&extra, 0.02).unwrap();
+    assert_eq!(core.tick(0.02, &mut cmd).code, StatusCode::NoWarning);
+    // Old state: stale → zero velocity.
+    let r = core.tick(0.02 + 0.2, &mut cmd);
+    assert_eq!(r.code, StatusCode::StaleJointStates);
+    assert!(cmd.velocities.iter().all(|&v| v == 0.0));
+    assert!(core.status().joint_state_age_s > 0.1);
+}
+
+#[test]
+fn bad_conditions_are_rejected_and_the_previous_one_kept() {
+    let mut core = node(OutputMode::Velocity, None);
+    let mut cmd = core.command();
+    core.on_joint_state(&joint_state(&core, &Q0, 0.0), 0.0)
+        .unwrap();
+    let good = msg::SymmetryCondition {
+        theta: -0.3,
+        scale: 1.2,
+        reflection: 1,
+        ..Default::default()
+    };
+    core.on_condition(&good).unwrap();
+    let kept = core.condition();
+    let bad = [
+        (3, 1.0, 0.0, Rejection::InvalidReflection { value: 3 }),
+        (0, 1.0, 0.0, Rejection::InvalidReflection { value: 0 }),
+        (1, 0.0, 0.0, Rejection::InvalidScale),
+        (1, -1.0, 0.0, Rejection::InvalidScale),
+        (1, f64::NAN, 0.0, Rejection::InvalidScale),
+        (1, f64::INFINITY, 0.0, Rejection::InvalidScale),
+        (1, 1.0, f64::NAN, Rejection::InvalidTheta),
+    ];
+    for (k, (reflection, scale, theta, expect)) in bad.into_iter().enumerate() {
+        let m = msg::SymmetryCondition {
+            theta,
+            scale,
+            reflection,
+            ..Default::default()
+        };
+        assert_eq!(core.on_condition(&m), Err(expect), "case {k}");
+        assert_eq!(core.condition(), kept);
+        let r = core.tick(0.0, &mut cmd);
+        assert_eq!(r.code, StatusCode::InvalidInput);
+        assert_safe(&core, &cmd);
+        assert_eq!(core.status().rejected_conditions, k as u32 + 1);
+    }
+    core.on_condition(&good).unwrap();
+    assert_eq!(core.tick(0.0, &mut cmd).code, StatusCode::NoWarning);
+}
+
+#[test]
+fn position_mode_never_leaves_the_limits() {
+    // A policy that drives every joint towards its upper limit at 5 rad/s (> 3 rad/s limit).
+    let bias = [5.0, -5.0, 5.0, 5.0, -5.0, 5.0, 5.0, -5.0];
+    for mode in [OutputMode::Position, OutputMode::Trajectory] {
+        let mut core = node(mode, Some(&bias));
+        let mut cmd = core.command();
+        let limits: Vec<JointLimits> = core.limits().to_vec();
+        // Before any state: nothing to hold, nothing published.
+        assert!(!core.tick(0.0, &mut cmd).publish);
+        let mut q: Vec<f64> = limits
+            .iter()
+            .zip(&bias)
+            .map(|(l, b)| {
+                if *b > 0.0 {
+                    l.upper - 0.3
+                } else {
+                    l.lower + 0.3
+                }
+            })
+            .collect();
+        let mut bound = 0;
+        for k in 0..400 {
+            let t = k as f64 * 0.01;
+            core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
+            let r = core.tick(t, &mut cmd);
+            assert!(r.publish);
+            bound += usize::from(r.code == StatusCode::JointBound);
+            assert_safe(&core, &cmd);
+            assert_eq!(cmd.data(), cmd.positions.as_slice());
+            // Perfect tracking, with a measurement overshoot the node must not follow.
+            for ((qj, p), b) in q.iter_mut().zip(&cmd.positions).zip(&bias) {
+                *qj = p + 0.001 * b.signum();
+            }
+        }
+        assert!(bound > 100, "{mode:?}: {bound} ticks on a bound");
+        // The limits were exercised: some joint sits at one (the QP's W = JᵀJ + εI lets
+        // the others move elsewhere to keep the end-effector motion).
+        let at_limit = limits
+            .iter()
+            .zip(&cmd.positions)
+            .filter(|(l, p)| (*p - l.upper).abs() < 0.05 || (*p - l.lower).abs() < 0.05)
+            .count();
+        assert!(at_limit > 0, "{mode:?}: no joint reached a limit");
+        // Stale: hold the last commanded position, zero velocity.
+        let held = cmd.positions.clone();
+        let r = core.tick(100.0, &mut cmd);
+        assert_eq!(r.code, StatusCode::StaleJointStates);
+        assert!(r.publish);
+        assert_eq!(cmd.positions, held);
+        assert!(cmd.velocities.iter().all(|&v| v == 0.0));
+        // The trajectory message carries one point reached after Δt.
+        let traj = cmd.to_joint_trajectory(core.joint_names(), 0.01);
+        assert_eq!(traj.points.len(), 1);
+        assert_eq!(traj.points[0].time_from_start.nanosec, 10_000_000);
+        assert_eq!(traj.joint_names, core.joint_names());
+    }
+}
+
+#[test]
+fn shutdown_command_is_zero_or_hold() {
+    let mut core = node(OutputMode::Velocity, Some(&[1.0; 8]));
+    let mut cmd = core.command();
+    core.on_joint_state(&joint_state(&core, &Q0, 0.0), 0.0)
+        .unwrap();
+    core.tick(0.0, &mut cmd);
+    assert!(cmd.velocities.iter().any(|&v| v != 0.0));
+    assert!(core.shutdown_command(&mut cmd));
+    assert!(cmd.data().iter().all(|&v| v == 0.0));
+    assert_eq!(core.status().code, StatusCode::Shutdown);
+    let m = cmd.to_float64_multi_array();
+    assert_eq!(m.data, vec![0.0; 8]);
+
+    let mut core = node(OutputMode::Position, Some(&[1.0; 8]));
+    let mut cmd = core.command();
+    assert!(!core.shutdown_command(&mut cmd), "nothing to hold yet");
+    core.on_joint_state(&joint_state(&core, &Q0, 0.0), 0.0)
+        .unwrap();
+    core.tick(0.0, &mut cmd);
+    let last = cmd.positions.clone();
+    assert_ne!(last, Q0.to_vec());
+    assert!(core.shutdown_command(&mut cmd));
+    assert_eq!(cmd.data(), last.as_slice());
+    assert!(cmd.velocities.iter().all(|&v| v == 0.0));
+}
+
+#[test]
+fn node_rejects_a_policy_of_the_wrong_size() {
+    let robot = common::planar();
+    let p = policy(6, &[0.0; 6]);
+    let e = NodeCore::new(
+        robot.kinematics,
+        p,
+        SafetySettings::default(),
+        NodeConfig::default(),
+    );
+    assert!(e.is_err());
+}
