@@ -8,6 +8,8 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use crossym::config::Config;
 
+mod ros;
+
 /// Cross-space symmetry compositions for robot policies.
 #[derive(Debug, Parser)]
 #[command(name = "crossym", version, about)]
@@ -61,6 +63,28 @@ enum Command {
         #[arg(long, default_value = "results")]
         out: PathBuf,
     },
+    /// Run the ROS 2 node: joint states + symmetry condition → policy → safety QP → command.
+    /// Honours ROS_DOMAIN_ID, ROS_LOCALHOST_ONLY, ROS_AUTOMATIC_DISCOVERY_RANGE.
+    Node {
+        /// Config file (TOML) with [robot] and [node].
+        #[arg(long, short)]
+        config: PathBuf,
+        #[command(flatten)]
+        overrides: ros::NodeOverrides,
+    },
+    /// Run the mock hardware: integrate commands, publish /joint_states, log limit violations.
+    /// Exits 1 when it saw a limit violation.
+    MockHw {
+        /// Config file (TOML) with [robot], [node] and optionally [mock_hw].
+        #[arg(long, short)]
+        config: PathBuf,
+        /// Write the run's summary (JSON) here on exit.
+        #[arg(long)]
+        summary: Option<PathBuf>,
+        /// Initial positions of the controlled joints (rad), comma-separated.
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        initial_q: Option<Vec<f64>>,
+    },
     /// Transfer and compose the configured symmetries and print the numerical checks.
     /// Exits 1 when a requested composition is impossible or a transfer fails.
     Check {
@@ -75,6 +99,12 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Info { config, q } => info(&config, q),
         Command::Check { config } => check(&config),
+        Command::Node { config, overrides } => ros::node(&config, &overrides),
+        Command::MockHw {
+            config,
+            summary,
+            initial_q,
+        } => ros::mock_hw(&config, summary.as_deref(), initial_q),
         Command::Augment { config } => augment(&config),
         Command::Train {
             config,
@@ -277,9 +307,7 @@ fn pipeline(
     kin: &crossym::kinematics::Kinematics,
     splits: (bool, bool),
 ) -> anyhow::Result<Pipeline> {
-    use crossym::data::augmentation::{letter_group, AugmentedSet, Augmenter};
-    use crossym::symmetry::transfer::flow::FlowSettings;
-    use crossym::symmetry::transfer::lift::LiftedAction;
+    use crossym::data::augmentation::{letter_augmenter, AugmentedSet};
     let letters = cfg
         .letters
         .as_ref()
@@ -298,20 +326,8 @@ fn pipeline(
         .context("[augmentation] test")?;
     let demos = letters.build(kin, &cfg.base_dir)?;
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
-    let (rho, rot, sc) =
-        letter_group(&built, &cfg.composition.order).map_err(anyhow::Error::msg)?;
-    let flow = FlowSettings {
-        rtol: 1e-8,
-        atol: 1e-10,
-        ..Default::default()
-    };
-    let augmenter = Augmenter::new(
-        kin,
-        LiftedAction::new(kin, rot, flow).map_err(anyhow::Error::msg)?,
-        LiftedAction::new(kin, sc, flow).map_err(anyhow::Error::msg)?,
-        rho,
-    )
-    .map_err(anyhow::Error::msg)?;
+    let augmenter =
+        letter_augmenter(kin, &built, &cfg.composition.order).map_err(anyhow::Error::msg)?;
     let run = |label: &str, grid: &crossym::data::augmentation::GroupGrid, which: &[usize]| {
         let sel = demos.select(which);
         let bar = indicatif::ProgressBar::new((sel.len() * grid.scales.len()) as u64);

@@ -144,6 +144,9 @@ pub struct Config {
     /// The ROS 2 node (`[node]`).
     #[serde(default)]
     pub node: Option<NodeConfig>,
+    /// The mock hardware (`[mock_hw]`).
+    #[serde(default)]
+    pub mock_hw: Option<crate::sim::MockHwConfig>,
     /// Directory of the file, for resolving relative paths (not read from TOML).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -173,6 +176,15 @@ impl Config {
         })?;
         cfg.path = path.to_path_buf();
         Ok(cfg)
+    }
+
+    /// Resolves a path given in this config file (relative to the file's directory).
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.base_dir.join(p)
+        }
     }
 
     /// Loads the robot described by `[robot]` and `[kinematics]`.

@@ -28,4 +28,5 @@ pub mod kinematics;
 pub mod policy;
 pub mod ros;
 pub mod safety;
+pub mod sim;
 pub mod symmetry;

@@ -10,6 +10,10 @@ use clap::Parser;
 mod cli;
 
 fn main() -> ExitCode {
+    env_logger::Builder::from_env(
+        env_logger::Env::default().default_filter_or("warn,rustdds=error"),
+    )
+    .init();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(code) => code,

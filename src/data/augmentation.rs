@@ -489,3 +489,72 @@ impl<'a> Augmenter<'a> {
         set
     }
 }
+
+/// The letter task's augmenter: `M`, `R`, `S` of `order` found in `built`, the lifted
+/// flows integrated at rtol 1e-8 / atol 1e-10.
+pub fn letter_augmenter<'a>(
+    kin: &'a Kinematics,
+    built: &'a [BuiltSymmetry],
+    order: &[String],
+) -> Result<Augmenter<'a>, String> {
+    use crate::symmetry::transfer::flow::FlowSettings;
+    let (rho, rot, sc) = letter_group(built, order)?;
+    let flow = FlowSettings {
+        rtol: 1e-8,
+        atol: 1e-10,
+        ..Default::default()
+    };
+    Augmenter::new(
+        kin,
+        LiftedAction::new(kin, rot, flow)?,
+        LiftedAction::new(kin, sc, flow)?,
+        rho,
+    )
+}
+
+/// The nominal trajectories of `demo` under each of `conditions` (the letter task of
+/// `cfg`: `[letters]`, `[[symmetries]]`, `[composition]`), in the order given.
+///
+/// Each is the demonstration transformed by eq. 23, as in the augmentation; an infeasible
+/// condition is an error naming its drop reason.
+pub fn nominal_trajectories(
+    cfg: &crate::config::Config,
+    kin: &Kinematics,
+    demo: &JointTrajectory,
+    conditions: &[Condition],
+) -> Result<Vec<Augmented>, String> {
+    let (built, _) =
+        crate::symmetry::check::build(kin, &cfg.symmetries).map_err(|e| e.to_string())?;
+    let augmenter = letter_augmenter(kin, &built, &cfg.composition.order)?;
+    let mut out = Vec::with_capacity(conditions.len());
+    for c in conditions {
+        c.validate()?;
+        let deg = c.theta.to_degrees().abs();
+        let grid = GroupGrid {
+            rotation_step_deg: (deg > 1e-9).then_some(deg),
+            scales: vec![c.scale],
+            reflection: c.reflection == -1,
+        };
+        grid.validate()?;
+        let set = augmenter.augment_scale(demo, c.scale, &grid);
+        let same = |a: &Condition| (a.theta - c.theta).abs() < 1e-9 && a.reflection == c.reflection;
+        if let Some(a) = set.trajectories.iter().find(|a| same(&a.condition)) {
+            out.push(Augmented {
+                condition: *c,
+                traj: a.traj.clone(),
+            });
+        } else {
+            let why = set
+                .dropped
+                .iter()
+                .find(|d| same(&d.1))
+                .map(|d| format!("{:?}", d.2))
+                .unwrap_or_else(|| "not produced".into());
+            return Err(format!(
+                "condition (θ = {} rad, λ = {}, σ = {}) is infeasible for demo {}: {why}",
+                c.theta, c.scale, c.reflection, demo.demo
+            ));
+        }
+    }
+    Ok(out)
+}

@@ -14,12 +14,14 @@
 //! clamped inside the position limits. Commands are always finite and inside the limits.
 //! The tick allocates, locks and logs nothing (buffers are sized at construction).
 
+use std::path::PathBuf;
+
 use serde::{Deserialize, Serialize};
 
 use super::msg;
 use crate::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
 use crate::policy::{Policy, PolicyWorkspace};
-use crate::safety::{SafetyError, SafetyFilter, SafetySettings, SafetyStatus};
+use crate::safety::{Barrier, SafetyError, SafetyFilter, SafetySettings, SafetyStatus};
 use crate::symmetry::compose::Condition;
 
 /// What the node publishes on its command topic.
@@ -60,6 +62,17 @@ impl Default for TopicNames {
     }
 }
 
+/// When the control tick runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Trigger {
+    /// Every `period_s`, on the latest inputs (fixed-rate controller).
+    #[default]
+    Timer,
+    /// On every accepted joint state (lowest latency); at `period_s` when none arrives.
+    JointStates,
+}
+
 /// `[node]`: the ROS 2 node's settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -80,6 +93,14 @@ pub struct NodeConfig {
     pub output: OutputMode,
     /// Topic names.
     pub topics: TopicNames,
+    /// When the tick runs.
+    pub trigger: Trigger,
+    /// Period of `~/status` (s).
+    pub status_period_s: f64,
+    /// Policy file (`.safetensors` with its `.json` sidecar), relative to the config file.
+    pub policy: Option<PathBuf>,
+    /// Safety filter settings (`dt` is replaced by `period_s`).
+    pub safety: SafetySettings,
 }
 
 impl Default for NodeConfig {
@@ -93,6 +114,10 @@ impl Default for NodeConfig {
             default_condition: Condition::IDENTITY,
             output: OutputMode::Velocity,
             topics: TopicNames::default(),
+            trigger: Trigger::Timer,
+            status_period_s: 0.1,
+            policy: None,
+            safety: SafetySettings::default(),
         }
     }
 }
@@ -114,6 +139,12 @@ impl NodeConfig {
                     "{} must be finite and at least period_s = {}",
                     self.stale_timeout_s, self.period_s
                 ),
+            ));
+        }
+        if !(self.status_period_s.is_finite() && self.status_period_s > 0.0) {
+            return Err(bad(
+                "status_period_s",
+                format!("{} must be positive", self.status_period_s),
             ));
         }
         if self.name.is_empty() {
@@ -420,6 +451,168 @@ impl StatusSnapshot {
     }
 }
 
+/// Latest validated inputs, handed from the DDS I/O side to the control tick.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Inputs {
+    /// Latest valid joint positions in the controlled order (rad or m).
+    pub q: Vec<f64>,
+    /// Receipt time of `q` (s, the clock of `now_s`); `None` before the first.
+    pub state_time_s: Option<f64>,
+    /// Latest valid condition (or the configured default).
+    pub condition: Condition,
+    /// Last rejected input, if any since start.
+    pub last_error: Option<Rejection>,
+    /// The latest joint_states message was rejected.
+    pub joint_state_rejected: bool,
+    /// The latest symmetry_condition message was rejected.
+    pub condition_rejected: bool,
+    /// Rejected joint_states messages since start (count).
+    pub rejected_joint_states: u32,
+    /// Rejected symmetry_condition messages since start (count).
+    pub rejected_conditions: u32,
+    /// Accepted joint_states messages since start (count).
+    pub joint_state_seq: u64,
+}
+
+impl Inputs {
+    fn new(n: usize, condition: Condition) -> Self {
+        Self {
+            q: vec![0.0; n],
+            state_time_s: None,
+            condition,
+            last_error: None,
+            joint_state_rejected: false,
+            condition_rejected: false,
+            rejected_joint_states: 0,
+            rejected_conditions: 0,
+            joint_state_seq: 0,
+        }
+    }
+
+    /// Copies `src` into `self` without allocating (same joint count).
+    pub fn copy_from(&mut self, src: &Inputs) {
+        self.q.copy_from_slice(&src.q);
+        self.state_time_s = src.state_time_s;
+        self.condition = src.condition;
+        self.last_error = src.last_error;
+        self.joint_state_rejected = src.joint_state_rejected;
+        self.condition_rejected = src.condition_rejected;
+        self.rejected_joint_states = src.rejected_joint_states;
+        self.rejected_conditions = src.rejected_conditions;
+        self.joint_state_seq = src.joint_state_seq;
+    }
+}
+
+/// Validates input messages into [`Inputs`]: joints mapped by name, conditions checked.
+///
+/// Runs on the I/O side of the node (or inside [`NodeCore`] single-threaded); allocation-free.
+#[derive(Debug, Clone)]
+pub struct InputGate {
+    names: Vec<String>,
+    map: Vec<usize>,
+    stale_timeout_s: f64,
+    check_stamps: bool,
+    inputs: Inputs,
+}
+
+impl InputGate {
+    /// A gate for the controlled `joint_names` with `cfg`'s stamp checks and default condition.
+    pub fn new(joint_names: &[String], cfg: &NodeConfig) -> Self {
+        let n = joint_names.len();
+        Self {
+            names: joint_names.to_vec(),
+            map: vec![usize::MAX; n],
+            stale_timeout_s: cfg.stale_timeout_s,
+            check_stamps: cfg.check_stamps,
+            inputs: Inputs::new(n, cfg.default_condition),
+        }
+    }
+
+    /// The validated inputs so far.
+    pub fn inputs(&self) -> &Inputs {
+        &self.inputs
+    }
+
+    fn reject_joint_state(&mut self, r: Rejection) -> Result<(), Rejection> {
+        let i = &mut self.inputs;
+        i.joint_state_rejected = true;
+        i.rejected_joint_states = i.rejected_joint_states.saturating_add(1);
+        i.last_error = Some(r);
+        Err(r)
+    }
+
+    /// Accepts a JointState received at `now_s` (s, ROS time) or says why not; allocation-free.
+    pub fn on_joint_state(&mut self, m: &msg::JointState, now_s: f64) -> Result<(), Rejection> {
+        if m.name.len() != m.position.len() {
+            return self.reject_joint_state(Rejection::LengthMismatch {
+                names: m.name.len(),
+                positions: m.position.len(),
+            });
+        }
+        if self.check_stamps && !m.header.stamp.is_zero() {
+            let age = now_s - m.header.stamp.as_secs_f64();
+            if age.is_nan() || age > self.stale_timeout_s {
+                return self.reject_joint_state(Rejection::StaleStamp);
+            }
+        }
+        self.map.fill(usize::MAX);
+        for (k, name) in m.name.iter().enumerate() {
+            if let Some(j) = self.names.iter().position(|c| c == name) {
+                if self.map[j] != usize::MAX {
+                    return self.reject_joint_state(Rejection::DuplicateJoint { joint: j });
+                }
+                self.map[j] = k;
+            }
+        }
+        for j in 0..self.names.len() {
+            let k = self.map[j];
+            if k == usize::MAX {
+                return self.reject_joint_state(Rejection::MissingJoint { joint: j });
+            }
+            if !m.position[k].is_finite() {
+                return self.reject_joint_state(Rejection::NonFinitePosition { joint: j });
+            }
+        }
+        let i = &mut self.inputs;
+        for j in 0..self.names.len() {
+            i.q[j] = m.position[self.map[j]];
+        }
+        i.state_time_s = Some(now_s);
+        i.joint_state_rejected = false;
+        i.joint_state_seq = i.joint_state_seq.wrapping_add(1);
+        Ok(())
+    }
+
+    /// Accepts a SymmetryCondition or says why not (the previous one stays); allocation-free.
+    pub fn on_condition(&mut self, m: &msg::SymmetryCondition) -> Result<(), Rejection> {
+        let r = if !m.theta.is_finite() {
+            Some(Rejection::InvalidTheta)
+        } else if !(m.scale.is_finite() && m.scale > 0.0) {
+            Some(Rejection::InvalidScale)
+        } else if !(m.reflection == 1 || m.reflection == -1) {
+            Some(Rejection::InvalidReflection {
+                value: m.reflection,
+            })
+        } else {
+            None
+        };
+        let i = &mut self.inputs;
+        if let Some(r) = r {
+            i.condition_rejected = true;
+            i.rejected_conditions = i.rejected_conditions.saturating_add(1);
+            i.last_error = Some(r);
+            return Err(r);
+        }
+        i.condition = Condition {
+            theta: m.theta,
+            scale: m.scale,
+            reflection: m.reflection,
+        };
+        i.condition_rejected = false;
+        Ok(())
+    }
+}
+
 /// The node's logic: latest inputs, the control tick, the status. See the module docs.
 pub struct NodeCore {
     cfg: NodeConfig,
@@ -430,25 +623,18 @@ pub struct NodeCore {
     filter: SafetyFilter,
     limits: Vec<JointLimits>,
     n: usize,
-    // Latest valid joint state.
-    q: Vec<f64>,
-    state_time_s: Option<f64>,
-    // Scratch: message index of each controlled joint.
-    map: Vec<usize>,
+    gate: InputGate,
+    // End-effector distance barrier (two chains, same task dimension), if configured.
+    min_ee_distance: Option<f64>,
+    barrier_grad: Vec<f64>,
     v_policy: Vec<f64>,
     v_safe: Vec<f64>,
     zeros: Vec<f64>,
     // Last commanded position (hold target).
     q_hold: Vec<f64>,
     has_hold: bool,
-    condition: Condition,
     // Status.
     code: StatusCode,
-    last_error: Option<Rejection>,
-    joint_state_rejected: bool,
-    condition_rejected: bool,
-    rejected_joint_states: u32,
-    rejected_conditions: u32,
     ticks: u64,
     stale_ticks: u64,
     active: u32,
@@ -460,7 +646,8 @@ pub struct NodeCore {
 impl NodeCore {
     /// Builds the node for `kin`'s controlled joints; the safety filter's `dt` is set to
     /// `cfg.period_s`. The policy must have `kin.dof()` joints (and, if it names them,
-    /// the same names in the same order).
+    /// the same names in the same order). With `safety.min_ee_distance`, the robot must
+    /// have exactly two chains of the same task dimension (the two end-effectors).
     pub fn new(
         kin: Kinematics,
         policy: Policy,
@@ -484,6 +671,18 @@ impl NodeCore {
                 ),
             });
         }
+        if safety.min_ee_distance.is_some() {
+            let c = kin.chains();
+            if c.len() != 2 || c[0].task.dim() != c[1].task.dim() {
+                return Err(NodeError::Config {
+                    field: "safety.min_ee_distance",
+                    message: format!(
+                        "needs exactly two chains of equal task dimension, robot has {}",
+                        c.len()
+                    ),
+                });
+            }
+        }
         let limits = kin.limits().to_vec();
         let filter = SafetyFilter::new(
             &limits,
@@ -494,30 +693,23 @@ impl NodeCore {
         )?;
         let kws = kin.workspace();
         let pws = policy.workspace();
-        let condition = cfg.default_condition;
+        let gate = InputGate::new(kin.joint_names(), &cfg);
         Ok(Self {
-            kin,
             kws,
             pws,
             policy,
             filter,
             limits,
             n,
-            q: vec![0.0; n],
-            state_time_s: None,
-            map: vec![usize::MAX; n],
+            gate,
+            min_ee_distance: safety.min_ee_distance,
+            barrier_grad: vec![0.0; n],
             v_policy: vec![0.0; n],
             v_safe: vec![0.0; n],
             zeros: vec![0.0; n],
             q_hold: vec![0.0; n],
             has_hold: false,
-            condition,
             code: StatusCode::StaleJointStates,
-            last_error: None,
-            joint_state_rejected: false,
-            condition_rejected: false,
-            rejected_joint_states: 0,
-            rejected_conditions: 0,
             ticks: 0,
             stale_ticks: 0,
             active: 0,
@@ -525,12 +717,18 @@ impl NodeCore {
             tick_time_us: 0.0,
             tick_time_max_us: 0.0,
             cfg,
+            kin,
         })
     }
 
     /// The node's settings.
     pub fn config(&self) -> &NodeConfig {
         &self.cfg
+    }
+
+    /// The robot's kinematics (controlled joints).
+    pub fn kinematics(&self) -> &Kinematics {
+        &self.kin
     }
 
     /// Controlled joint names, the order of every command.
@@ -545,12 +743,13 @@ impl NodeCore {
 
     /// The condition currently applied.
     pub fn condition(&self) -> Condition {
-        self.condition
+        self.gate.inputs.condition
     }
 
     /// The latest valid joint positions (rad) and their receipt time (s), if any.
     pub fn joint_state(&self) -> Option<(&[f64], f64)> {
-        self.state_time_s.map(|t| (self.q.as_slice(), t))
+        let i = &self.gate.inputs;
+        i.state_time_s.map(|t| (i.q.as_slice(), t))
     }
 
     /// A command buffer sized for this node (allocate once).
@@ -562,79 +761,24 @@ impl NodeCore {
         }
     }
 
-    fn reject_joint_state(&mut self, r: Rejection) -> Result<(), Rejection> {
-        self.joint_state_rejected = true;
-        self.rejected_joint_states = self.rejected_joint_states.saturating_add(1);
-        self.last_error = Some(r);
-        Err(r)
+    /// A separate input gate for this node (for an I/O thread feeding [`NodeCore::load_inputs`]).
+    pub fn input_gate(&self) -> InputGate {
+        InputGate::new(self.kin.joint_names(), &self.cfg)
+    }
+
+    /// Replaces the node's inputs by `src` (from another gate); allocation-free.
+    pub fn load_inputs(&mut self, src: &Inputs) {
+        self.gate.inputs.copy_from(src);
     }
 
     /// Accepts a JointState received at `now_s` (s) or says why not; allocation-free.
     pub fn on_joint_state(&mut self, m: &msg::JointState, now_s: f64) -> Result<(), Rejection> {
-        if m.name.len() != m.position.len() {
-            return self.reject_joint_state(Rejection::LengthMismatch {
-                names: m.name.len(),
-                positions: m.position.len(),
-            });
-        }
-        if self.cfg.check_stamps && !m.header.stamp.is_zero() {
-            let age = now_s - m.header.stamp.as_secs_f64();
-            if age.is_nan() || age > self.cfg.stale_timeout_s {
-                return self.reject_joint_state(Rejection::StaleStamp);
-            }
-        }
-        self.map.fill(usize::MAX);
-        for (k, name) in m.name.iter().enumerate() {
-            if let Some(j) = self.kin.joint_names().iter().position(|c| c == name) {
-                if self.map[j] != usize::MAX {
-                    return self.reject_joint_state(Rejection::DuplicateJoint { joint: j });
-                }
-                self.map[j] = k;
-            }
-        }
-        for j in 0..self.n {
-            let k = self.map[j];
-            if k == usize::MAX {
-                return self.reject_joint_state(Rejection::MissingJoint { joint: j });
-            }
-            if !m.position[k].is_finite() {
-                return self.reject_joint_state(Rejection::NonFinitePosition { joint: j });
-            }
-        }
-        for j in 0..self.n {
-            self.q[j] = m.position[self.map[j]];
-        }
-        self.state_time_s = Some(now_s);
-        self.joint_state_rejected = false;
-        Ok(())
+        self.gate.on_joint_state(m, now_s)
     }
 
     /// Accepts a SymmetryCondition or says why not (the previous one stays); allocation-free.
     pub fn on_condition(&mut self, m: &msg::SymmetryCondition) -> Result<(), Rejection> {
-        let r = if !m.theta.is_finite() {
-            Some(Rejection::InvalidTheta)
-        } else if !(m.scale.is_finite() && m.scale > 0.0) {
-            Some(Rejection::InvalidScale)
-        } else if !(m.reflection == 1 || m.reflection == -1) {
-            Some(Rejection::InvalidReflection {
-                value: m.reflection,
-            })
-        } else {
-            None
-        };
-        if let Some(r) = r {
-            self.condition_rejected = true;
-            self.rejected_conditions = self.rejected_conditions.saturating_add(1);
-            self.last_error = Some(r);
-            return Err(r);
-        }
-        self.condition = Condition {
-            theta: m.theta,
-            scale: m.scale,
-            reflection: m.reflection,
-        };
-        self.condition_rejected = false;
-        Ok(())
+        self.gate.on_condition(m)
     }
 
     /// Fills `out` with the zero / hold command; false when there is nothing to hold.
@@ -642,9 +786,10 @@ impl NodeCore {
         out.mode = self.cfg.output;
         out.velocities.fill(0.0);
         self.filter.reset(&self.zeros);
-        if !self.has_hold && self.state_time_s.is_some() {
+        let i = &self.gate.inputs;
+        if !self.has_hold && i.state_time_s.is_some() {
             for j in 0..self.n {
-                self.q_hold[j] = clamp_to(&self.limits[j], self.q[j]);
+                self.q_hold[j] = clamp_to(&self.limits[j], i.q[j]);
             }
             self.has_hold = true;
         }
@@ -655,7 +800,7 @@ impl NodeCore {
     /// One control tick at time `now_s` (s) into `out`; allocation-free. See the module docs.
     pub fn tick(&mut self, now_s: f64, out: &mut Command) -> TickReport {
         self.ticks = self.ticks.saturating_add(1);
-        let fresh = match self.state_time_s {
+        let fresh = match self.gate.inputs.state_time_s {
             Some(t) => {
                 self.age_s = now_s - t;
                 self.age_s <= self.cfg.stale_timeout_s
@@ -677,23 +822,28 @@ impl NodeCore {
                 active_constraints: 0,
             };
         }
+        let inputs = &self.gate.inputs;
+        let q = inputs.q.as_slice();
         self.policy
-            .velocity(&self.q, &self.condition, &mut self.v_policy, &mut self.pws);
-        self.kin.jacobian(&self.q, &mut self.kws);
-        let jac = if self.kws.jac.iter().all(|x| x.is_finite()) {
-            Some(&self.kws.jac)
-        } else {
-            None
+            .velocity(q, &inputs.condition, &mut self.v_policy, &mut self.pws);
+        self.kin.jacobian(q, &mut self.kws);
+        let jac_ok = self.kws.jac.iter().all(|x| x.is_finite());
+        let barrier = match self.min_ee_distance {
+            Some(d_min) if jac_ok => {
+                ee_barrier(&self.kin, &self.kws, d_min, &mut self.barrier_grad)
+            }
+            _ => None,
         };
+        let jac = if jac_ok { Some(&self.kws.jac) } else { None };
         let report = self
             .filter
-            .filter(&self.q, &self.v_policy, jac, None, &mut self.v_safe);
+            .filter(q, &self.v_policy, jac, barrier, &mut self.v_safe);
         out.mode = self.cfg.output;
         let dt = self.cfg.period_s;
         let mut finite = true;
         for j in 0..self.n {
             let v = self.v_safe[j];
-            let p = clamp_to(&self.limits[j], self.q[j] + v * dt);
+            let p = clamp_to(&self.limits[j], q[j] + v * dt);
             finite &= v.is_finite() && p.is_finite();
             out.velocities[j] = v;
             out.positions[j] = p;
@@ -713,7 +863,7 @@ impl NodeCore {
         self.q_hold.copy_from_slice(&out.positions);
         self.has_hold = true;
         self.active = report.active;
-        self.code = if self.joint_state_rejected || self.condition_rejected {
+        self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
             StatusCode::InvalidInput
         } else if report.status == SafetyStatus::Fallback {
             StatusCode::SafetyFallback
@@ -752,18 +902,52 @@ impl NodeCore {
         StatusSnapshot {
             code: self.code,
             message: self.code.message(),
-            last_error: self.last_error,
+            last_error: self.gate.inputs.last_error,
             active_constraints: self.active,
-            rejected_joint_states: self.rejected_joint_states,
-            rejected_conditions: self.rejected_conditions,
+            rejected_joint_states: self.gate.inputs.rejected_joint_states,
+            rejected_conditions: self.gate.inputs.rejected_conditions,
             ticks: self.ticks,
             stale_ticks: self.stale_ticks,
             joint_state_age_s: self.age_s,
             tick_time_us: self.tick_time_us,
             tick_time_max_us: self.tick_time_max_us,
-            condition: self.condition,
+            condition: self.gate.inputs.condition,
         }
     }
+}
+
+/// The end-effector distance barrier `h(q) = ‖p₁ − p₂‖ − d_min` and its gradient
+/// `∂h/∂q = uᵀ[J₁, −J₂]`, `u = (p₁ − p₂)/‖p₁ − p₂‖`, from `ws` after [`Kinematics::jacobian`].
+/// `None` when the end-effectors coincide (no direction). Allocation-free.
+fn ee_barrier<'g>(
+    kin: &Kinematics,
+    ws: &KinematicsWorkspace,
+    d_min: f64,
+    grad: &'g mut [f64],
+) -> Option<Barrier<'g>> {
+    let d = kin.chains()[0].task.dim();
+    let (x1, x2) = (kin.x_offset(0), kin.x_offset(1));
+    let mut dist2 = 0.0;
+    for r in 0..d {
+        let e = ws.x[x1 + r] - ws.x[x2 + r];
+        dist2 += e * e;
+    }
+    let dist = dist2.sqrt();
+    if !(dist.is_finite() && dist > 1e-9) {
+        return None;
+    }
+    for (col, g) in grad.iter_mut().enumerate() {
+        let mut acc = 0.0;
+        for r in 0..d {
+            let u = (ws.x[x1 + r] - ws.x[x2 + r]) / dist;
+            acc += u * (ws.jac[(x1 + r, col)] - ws.jac[(x2 + r, col)]);
+        }
+        *g = acc;
+    }
+    Some(Barrier {
+        gradient: grad,
+        value: dist - d_min,
+    })
 }
 
 /// Clamps `x` into `[lower, upper]` (infinite limits bound nothing; NaN stays NaN).

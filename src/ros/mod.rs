@@ -7,11 +7,13 @@
 //! [`NodeCore`]; everything here is testable without a network.
 
 pub mod core;
+pub mod dds;
 pub mod msg;
 pub mod msgdef;
+pub mod node;
 
 pub use self::core::{
-    Command, NodeConfig, NodeCore, NodeError, OutputMode, Rejection, StatusCode, StatusSnapshot,
-    TickReport, TopicNames,
+    Command, InputGate, Inputs, NodeConfig, NodeCore, NodeError, OutputMode, Rejection, StatusCode,
+    StatusSnapshot, TickReport, TopicNames, Trigger,
 };
 pub use msgdef::{ArrayKind, ConstantDef, FieldDef, FieldType, MsgDef, MsgDefError};

@@ -1,0 +1,163 @@
+//! `crossym node`, `crossym mock-hw`: config + CLI overrides → the DDS processes.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+use crossym::config::Config;
+use crossym::policy::Policy;
+use crossym::ros::dds::DdsSettings;
+use crossym::ros::{NodeConfig, NodeCore, OutputMode, Trigger};
+use crossym::sim::{MockHardware, MockHwConfig};
+
+/// Overrides of `[node]` from the command line.
+#[derive(Debug, Args, Clone, Default)]
+pub struct NodeOverrides {
+    /// Policy file (`.safetensors`, `.json` sidecar beside it); overrides `[node] policy`.
+    #[arg(long)]
+    pub policy: Option<PathBuf>,
+    /// Node name.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Node namespace (starts with `/`).
+    #[arg(long)]
+    pub namespace: Option<String>,
+    /// Command output: velocity, position or trajectory.
+    #[arg(long, value_parser = parse_output)]
+    pub output: Option<OutputMode>,
+    /// Tick trigger: timer or joint_states.
+    #[arg(long, value_parser = parse_trigger)]
+    pub trigger: Option<Trigger>,
+    /// Control period (s).
+    #[arg(long)]
+    pub period_s: Option<f64>,
+    /// Command topic.
+    #[arg(long)]
+    pub command_topic: Option<String>,
+    /// Stale timeout for joint states (s).
+    #[arg(long)]
+    pub stale_timeout_s: Option<f64>,
+}
+
+fn parse_output(s: &str) -> Result<OutputMode, String> {
+    match s {
+        "velocity" => Ok(OutputMode::Velocity),
+        "position" => Ok(OutputMode::Position),
+        "trajectory" => Ok(OutputMode::Trajectory),
+        _ => Err(format!("`{s}`: expected velocity, position or trajectory")),
+    }
+}
+
+fn parse_trigger(s: &str) -> Result<Trigger, String> {
+    match s {
+        "timer" => Ok(Trigger::Timer),
+        "joint_states" => Ok(Trigger::JointStates),
+        _ => Err(format!("`{s}`: expected timer or joint_states")),
+    }
+}
+
+/// `[node]` of `cfg` with the overrides applied and validated; the policy path resolved.
+pub fn node_config(cfg: &Config, o: &NodeOverrides) -> anyhow::Result<NodeConfig> {
+    let mut n = cfg.node.clone().unwrap_or_default();
+    if let Some(p) = &o.policy {
+        n.policy = Some(p.clone());
+    } else if let Some(p) = &n.policy {
+        n.policy = Some(cfg.resolve(p));
+    }
+    if let Some(v) = &o.name {
+        n.name = v.clone();
+    }
+    if let Some(v) = &o.namespace {
+        n.namespace = v.clone();
+    }
+    if let Some(v) = o.output {
+        n.output = v;
+    }
+    if let Some(v) = o.trigger {
+        n.trigger = v;
+    }
+    if let Some(v) = o.period_s {
+        n.period_s = v;
+    }
+    if let Some(v) = &o.command_topic {
+        n.topics.command = v.clone();
+    }
+    if let Some(v) = o.stale_timeout_s {
+        n.stale_timeout_s = v;
+    }
+    n.validate()?;
+    Ok(n)
+}
+
+/// Builds the node's logic from a config file and overrides.
+pub fn build_core(path: &Path, o: &NodeOverrides) -> anyhow::Result<(Config, NodeCore)> {
+    let cfg = Config::from_file(path)?;
+    let n = node_config(&cfg, o)?;
+    let policy_path = n.policy.clone().with_context(|| {
+        format!(
+            "{}: no policy: set [node] policy or pass --policy",
+            path.display()
+        )
+    })?;
+    let robot = cfg.load_robot()?;
+    let policy = Policy::load(&policy_path)?;
+    let core = NodeCore::new(robot.kinematics, policy, n.safety, n)?;
+    Ok((cfg, core))
+}
+
+/// `crossym node`.
+pub fn node(path: &Path, o: &NodeOverrides) -> anyhow::Result<ExitCode> {
+    let (_, core) = build_core(path, o)?;
+    let settings = DdsSettings::from_env()?;
+    let stats = crossym::ros::node::run(core, settings, None)?;
+    eprintln!(
+        "crossym node: {} ticks, {} commands, {} publish errors; tick median {:.1} us, p99 {:.1} us, max {:.1} us",
+        stats.ticks, stats.commands, stats.publish_errors, stats.median_us, stats.p99_us, stats.max_us
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `crossym mock-hw`.
+pub fn mock_hw(
+    path: &Path,
+    summary: Option<&Path>,
+    initial_q: Option<Vec<f64>>,
+) -> anyhow::Result<ExitCode> {
+    let cfg = Config::from_file(path)?;
+    let node = node_config(&cfg, &NodeOverrides::default())?;
+    let hw_cfg: MockHwConfig = cfg.mock_hw.clone().unwrap_or_default();
+    hw_cfg
+        .validate()
+        .map_err(anyhow::Error::msg)
+        .context("[mock_hw]")?;
+    let robot = cfg.load_robot()?;
+    let kin = &robot.kinematics;
+    let q0 = initial_q
+        .or_else(|| hw_cfg.initial_q.clone())
+        .or_else(|| cfg.check.reference_q.clone())
+        .unwrap_or_else(|| vec![0.0; kin.dof()]);
+    let mode = hw_cfg.command.unwrap_or(node.output);
+    let topic = hw_cfg
+        .command_topic
+        .clone()
+        .unwrap_or_else(|| node.topics.command.clone());
+    let hw = MockHardware::new(
+        &robot.model,
+        kin.joint_names(),
+        kin.limits(),
+        &cfg.robot.held,
+        &q0,
+        mode,
+        hw_cfg.clone(),
+    )
+    .map_err(anyhow::Error::msg)
+    .context("[mock_hw]")?;
+    let settings = DdsSettings::from_env()?;
+    let s = crossym::sim::process::run(hw, &hw_cfg, &topic, mode, settings, summary)?;
+    Ok(if s.violation_count == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}

@@ -1,0 +1,433 @@
+//! The ROS 2 node process: [`NodeCore`] over DDS (ros2-client).
+//!
+//! Threads:
+//! - **I/O** (tokio, one worker): the subscriptions `/joint_states` (best effort) and
+//!   `~/symmetry_condition` (reliable) feed an [`InputGate`]; after each message the
+//!   validated [`Inputs`] are published into a lock-free triple buffer (latest value wins).
+//!   Rejections are logged to rosout (at most once per second per kind). The ros2-client
+//!   spinner (graph, parameter services) and the SIGINT/SIGTERM handler run here too.
+//! - **Control** (a dedicated thread): every `period_s` (or on every accepted joint state
+//!   with `trigger = "joint_states"`), it takes the latest inputs and runs
+//!   [`NodeCore::tick`] — kinematics, policy `π(q, s)`, safety QP — which allocates, locks
+//!   and logs nothing; then it publishes the command, and `~/status` every
+//!   `status_period_s`. The tick never waits on I/O.
+//! - On SIGINT/SIGTERM the control thread sends one final zero-velocity / hold command and
+//!   a `SHUTDOWN` status, lets reliable delivery drain, and the process exits 0.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::{self, Thread};
+use std::time::{Duration, Instant};
+
+use futures::StreamExt;
+use ros2_client::log::LogLevel;
+use ros2_client::{NodeOptions, ParameterValue, RosoutRaw};
+
+use super::core::{Command, Inputs, NodeCore, OutputMode, Trigger};
+use super::dds::{self, DdsError, DdsSettings};
+use super::msg;
+
+/// Errors that stop the node process.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NodeRunError {
+    /// DDS setup failed.
+    #[error(transparent)]
+    Dds(#[from] DdsError),
+    /// The async runtime or a thread could not start.
+    #[error("runtime: {message}")]
+    Runtime {
+        /// What failed.
+        message: String,
+    },
+}
+
+/// Tick-duration statistics of one run (µs), from a fixed histogram of 1 µs bins.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TickStats {
+    /// Ticks run (count).
+    pub ticks: u64,
+    /// Commands published (count).
+    pub commands: u64,
+    /// Publish errors (count).
+    pub publish_errors: u64,
+    /// Median tick duration (µs).
+    pub median_us: f64,
+    /// 99th percentile tick duration (µs).
+    pub p99_us: f64,
+    /// Maximum tick duration (µs).
+    pub max_us: f64,
+}
+
+/// Fixed-size histogram of tick durations, 1 µs bins up to 20 ms (no allocation per sample).
+struct Histogram {
+    bins: Vec<u32>,
+    n: u64,
+    max_us: f64,
+}
+
+impl Histogram {
+    fn new() -> Self {
+        Self {
+            bins: vec![0; 20_000],
+            n: 0,
+            max_us: 0.0,
+        }
+    }
+
+    fn record(&mut self, us: f64) {
+        let last = self.bins.len() - 1;
+        let b = if us.is_finite() && us >= 0.0 {
+            (us as usize).min(last)
+        } else {
+            last
+        };
+        self.bins[b] = self.bins[b].saturating_add(1);
+        self.n += 1;
+        self.max_us = self.max_us.max(us);
+    }
+
+    fn quantile(&self, p: f64) -> f64 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        let target = (p * self.n as f64).ceil().max(1.0) as u64;
+        let mut acc = 0u64;
+        for (i, &c) in self.bins.iter().enumerate() {
+            acc += u64::from(c);
+            if acc >= target {
+                return i as f64 + 0.5;
+            }
+        }
+        self.max_us
+    }
+}
+
+/// Runs the node until SIGINT/SIGTERM (or `stop` is set); returns the tick statistics.
+pub fn run(
+    core: NodeCore,
+    settings: DdsSettings,
+    stop: Option<Arc<AtomicBool>>,
+) -> Result<TickStats, NodeRunError> {
+    let cfg = core.config().clone();
+    let ctx = settings.context()?;
+    let mut params: Vec<(&str, ParameterValue)> = vec![
+        ("period_s", ParameterValue::Double(cfg.period_s)),
+        (
+            "stale_timeout_s",
+            ParameterValue::Double(cfg.stale_timeout_s),
+        ),
+        ("check_stamps", ParameterValue::Boolean(cfg.check_stamps)),
+        (
+            "output",
+            ParameterValue::String(format!("{:?}", cfg.output).to_lowercase()),
+        ),
+        (
+            "trigger",
+            ParameterValue::String(format!("{:?}", cfg.trigger).to_lowercase()),
+        ),
+        (
+            "joint_names",
+            ParameterValue::StringArray(core.joint_names().to_vec()),
+        ),
+        (
+            "topics.command",
+            ParameterValue::String(cfg.topics.command.clone()),
+        ),
+    ];
+    if let Some(p) = &cfg.policy {
+        params.push(("policy", ParameterValue::String(p.display().to_string())));
+    }
+    let mut options = NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(true);
+    for (k, v) in &params {
+        options = options.declare_parameter(k, v.clone());
+    }
+    // Parameters are read-only at runtime: the tick's buffers and the QP are set up once.
+    let fixed: Vec<(String, ParameterValue)> = params
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    options = options.parameter_validator(Box::new(move |name, value| {
+        match fixed.iter().find(|(k, _)| k == name) {
+            Some((_, v)) if v == value => Ok(()),
+            _ => Err(format!(
+                "`{name}` is read-only at runtime: set it in the TOML config or on the command line"
+            )),
+        }
+    }));
+    let mut node = ctx
+        .new_node(dds::node_name(&cfg.namespace, &cfg.name)?, options)
+        .map_err(|e| DdsError::Create {
+            what: format!("node {}/{}", cfg.namespace, cfg.name),
+            message: format!("{e:?}"),
+        })?;
+
+    let js_sub = dds::subscription::<msg::JointState>(
+        &mut node,
+        &cfg.topics.joint_states,
+        dds::qos_sensor(),
+    )?;
+    let cond_sub = dds::subscription::<msg::SymmetryCondition>(
+        &mut node,
+        &cfg.topics.symmetry_condition,
+        dds::qos_reliable(10),
+    )?;
+    let out = match cfg.output {
+        OutputMode::Velocity | OutputMode::Position => {
+            CommandPublisher::Array(dds::publisher::<msg::Float64MultiArray>(
+                &mut node,
+                &cfg.topics.command,
+                dds::qos_reliable(10),
+            )?)
+        }
+        OutputMode::Trajectory => {
+            CommandPublisher::Trajectory(dds::publisher::<msg::JointTrajectory>(
+                &mut node,
+                &cfg.topics.command,
+                dds::qos_reliable(10),
+            )?)
+        }
+    };
+    let status_pub =
+        dds::publisher::<msg::Status>(&mut node, &cfg.topics.status, dds::qos_reliable(10))?;
+    let logger = node.logging_handle();
+    let spinner = node.spinner().map_err(|e| DdsError::Create {
+        what: "spinner".into(),
+        message: format!("{e:?}"),
+    })?;
+
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .thread_name("crossym-io")
+        .build()
+        .map_err(|e| NodeRunError::Runtime {
+            message: e.to_string(),
+        })?;
+
+    let stop = stop.unwrap_or_else(|| Arc::new(AtomicBool::new(false)));
+    let mut gate = core.input_gate();
+    let (mut input, output) = triple_buffer::triple_buffer(gate.inputs());
+    let names = core.joint_names().to_vec();
+    let trigger = cfg.trigger;
+
+    logger.rosout_raw(
+        ros2_client::builtin_interfaces::Time::now(),
+        LogLevel::Info,
+        &cfg.name,
+        &format!(
+            "crossym node up: {} joints, period {} s, output {:?} on {}, trigger {:?}, domain {}",
+            names.len(),
+            cfg.period_s,
+            cfg.output,
+            dds::expand_topic(&cfg.topics.command, &cfg.namespace, &cfg.name),
+            trigger,
+            settings.domain_id
+        ),
+        file!(),
+        "run",
+        line!(),
+    );
+
+    // Control thread.
+    let stop_ctl = stop.clone();
+    let status_names = names.clone();
+    let control = thread::Builder::new()
+        .name("crossym-control".into())
+        .spawn(move || control_loop(core, output, out, status_pub, stop_ctl, status_names))
+        .map_err(|e| NodeRunError::Runtime {
+            message: format!("control thread: {e}"),
+        })?;
+    let control_thread: Thread = control.thread().clone();
+
+    let node_name = cfg.name.clone();
+    runtime.block_on(async {
+        tokio::spawn(spinner.spin());
+        let signals = dds::shutdown_signal();
+        tokio::pin!(signals);
+        let mut js_stream = Box::pin(js_sub.async_stream());
+        let mut cond_stream = Box::pin(cond_sub.async_stream());
+        let mut last_log = [None::<Instant>; 3];
+        let mut log_limited = |slot: usize, level: LogLevel, text: &str| {
+            let now = Instant::now();
+            if last_log[slot].is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1)) {
+                last_log[slot] = Some(now);
+                logger.rosout_raw(
+                    ros2_client::builtin_interfaces::Time::now(),
+                    level,
+                    &node_name,
+                    text,
+                    file!(),
+                    "io",
+                    line!(),
+                );
+            }
+        };
+        let mut poll = tokio::time::interval(Duration::from_millis(20));
+        loop {
+            tokio::select! {
+                m = js_stream.next() => match m {
+                    Some(Ok((m, _))) => {
+                        if let Err(r) = gate.on_joint_state(&m, dds::wall_time_s()) {
+                            log_limited(0, LogLevel::Warn, &format!("rejected joint_states: {}", r.explain(&names)));
+                        }
+                        input.input_buffer_mut().copy_from(gate.inputs());
+                        input.publish();
+                        if trigger == Trigger::JointStates {
+                            control_thread.unpark();
+                        }
+                    }
+                    Some(Err(e)) => log_limited(2, LogLevel::Warn, &format!("joint_states not decodable: {e:?}")),
+                    None => break,
+                },
+                m = cond_stream.next() => match m {
+                    Some(Ok((m, _))) => {
+                        match gate.on_condition(&m) {
+                            Ok(()) => log_limited(1, LogLevel::Info, &format!(
+                                "symmetry condition: theta {} rad, scale {}, reflection {}",
+                                m.theta, m.scale, m.reflection)),
+                            Err(r) => log_limited(1, LogLevel::Warn, &format!("rejected symmetry_condition: {}", r.explain(&names))),
+                        }
+                        input.input_buffer_mut().copy_from(gate.inputs());
+                        input.publish();
+                    }
+                    Some(Err(e)) => log_limited(2, LogLevel::Warn, &format!("symmetry_condition not decodable: {e:?}")),
+                    None => break,
+                },
+                _ = &mut signals => break,
+                _ = poll.tick() => {
+                    if stop.load(Ordering::Acquire) {
+                        break;
+                    }
+                }
+            }
+        }
+        Ok::<(), NodeRunError>(())
+    })?;
+    stop.store(true, Ordering::Release);
+    control_thread.unpark();
+    let stats = control.join().map_err(|_| NodeRunError::Runtime {
+        message: "control thread panicked".into(),
+    })?;
+    logger.rosout_raw(
+        ros2_client::builtin_interfaces::Time::now(),
+        LogLevel::Info,
+        &cfg.name,
+        &format!(
+            "crossym node stopped: {} ticks, tick median {:.1} us, p99 {:.1} us, max {:.1} us",
+            stats.ticks, stats.median_us, stats.p99_us, stats.max_us
+        ),
+        file!(),
+        "run",
+        line!(),
+    );
+    drop(node);
+    runtime.shutdown_timeout(Duration::from_millis(200));
+    Ok(stats)
+}
+
+/// The command writer for the configured output mode.
+enum CommandPublisher {
+    Array(ros2_client::Publisher<msg::Float64MultiArray>),
+    Trajectory(ros2_client::Publisher<msg::JointTrajectory>),
+}
+
+impl CommandPublisher {
+    fn publish(&self, cmd: &Command, names: &[String], dt: f64) -> bool {
+        match self {
+            CommandPublisher::Array(p) => p.publish(cmd.to_float64_multi_array()).is_ok(),
+            CommandPublisher::Trajectory(p) => {
+                let mut m = cmd.to_joint_trajectory(names, dt);
+                m.header.stamp = msg::Time::from_secs_f64(dds::wall_time_s());
+                p.publish(m).is_ok()
+            }
+        }
+    }
+}
+
+fn control_loop(
+    mut core: NodeCore,
+    mut inputs: triple_buffer::Output<Inputs>,
+    out: CommandPublisher,
+    status_pub: ros2_client::Publisher<msg::Status>,
+    stop: Arc<AtomicBool>,
+    names: Vec<String>,
+) -> TickStats {
+    let cfg = core.config().clone();
+    let period = Duration::from_secs_f64(cfg.period_s);
+    let status_period = Duration::from_secs_f64(cfg.status_period_s);
+    let mut cmd = core.command();
+    let mut hist = Histogram::new();
+    let mut stats = TickStats::default();
+    let mut next = Instant::now() + period;
+    let mut next_status = Instant::now();
+    let mut last_seq = 0u64;
+    loop {
+        if stop.load(Ordering::Acquire) {
+            break;
+        }
+        let now = Instant::now();
+        let updated = inputs.update();
+        if updated {
+            core.load_inputs(inputs.peek_output_buffer());
+        }
+        let seq = inputs.peek_output_buffer().joint_state_seq;
+        let due = match cfg.trigger {
+            Trigger::Timer => now >= next,
+            Trigger::JointStates => seq != last_seq || now >= next,
+        };
+        if !due {
+            thread::park_timeout(next.saturating_duration_since(now));
+            continue;
+        }
+        last_seq = seq;
+        let t0 = Instant::now();
+        let report = core.tick(dds::wall_time_s(), &mut cmd);
+        let us = t0.elapsed().as_secs_f64() * 1e6;
+        core.record_tick_time(us);
+        hist.record(us);
+        stats.ticks += 1;
+        if report.publish {
+            if out.publish(&cmd, &names, cfg.period_s) {
+                stats.commands += 1;
+            } else {
+                stats.publish_errors += 1;
+            }
+        }
+        next = match cfg.trigger {
+            Trigger::Timer => {
+                let n = next + period;
+                if n <= t0 {
+                    t0 + period
+                } else {
+                    n
+                }
+            }
+            Trigger::JointStates => t0 + period,
+        };
+        if t0 >= next_status {
+            next_status = t0 + status_period;
+            let stamp = msg::Time::from_secs_f64(dds::wall_time_s());
+            if status_pub
+                .publish(core.status().to_msg(stamp, &names))
+                .is_err()
+            {
+                stats.publish_errors += 1;
+            }
+        }
+    }
+    // Final zero / hold command: ForwardCommandController would repeat the last one forever.
+    if core.shutdown_command(&mut cmd) && out.publish(&cmd, &names, cfg.period_s) {
+        stats.commands += 1;
+    }
+    let stamp = msg::Time::from_secs_f64(dds::wall_time_s());
+    let _ = status_pub.publish(core.status().to_msg(stamp, &names));
+    // Let reliable writers deliver (and repair) the last samples before they are dropped.
+    thread::sleep(Duration::from_millis(300));
+    stats.median_us = hist.quantile(0.5);
+    stats.p99_us = hist.quantile(0.99);
+    stats.max_us = hist.max_us;
+    stats
+}

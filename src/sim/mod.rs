@@ -1,0 +1,393 @@
+//! Mock hardware: a simulated robot that integrates joint commands and publishes
+//! `/joint_states`, with configurable latency, jitter, noise, drops and faults.
+//!
+//! Model (per step of `Δt_sim = 1/rate_hz`): velocity mode `q ← q + Δt_sim·v_cmd`;
+//! position / trajectory mode `q ← q_cmd` (ideal position servo, as RB-Y1's position
+//! interface is modelled). A command takes effect `latency_s + U(−jitter_s, jitter_s)` after
+//! it arrives and is lost with probability `drop_probability`. The last command is held
+//! forever (as ros2_control's ForwardCommandController does). Published positions carry
+//! Gaussian noise `N(0, noise_std²)`. Limits are **not** enforced: every position or
+//! velocity outside the URDF limits is counted and logged, so a bad controller shows.
+//! Faults: `frozen` (the state stops changing but messages keep coming) or `silent` (no
+//! more joint states) after `fault_after_s`.
+//!
+//! [`MockHardware`] is the simulation without DDS; [`process`] runs it as a DDS node.
+
+pub mod process;
+pub mod scenario;
+
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::kinematics::{JointLimits, RobotModel};
+use crate::ros::OutputMode;
+
+/// A fault injected after `fault_after_s`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FaultKind {
+    /// The state stops changing; joint states keep being published (stuck encoders).
+    Frozen,
+    /// No more joint states are published (driver crash, cable).
+    Silent,
+}
+
+/// `[mock_hw]`: the simulated robot's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MockHwConfig {
+    /// Node name.
+    pub name: String,
+    /// Integration and publishing rate (Hz).
+    pub rate_hz: f64,
+    /// How commands are interpreted; `None` follows `[node] output`.
+    pub command: Option<OutputMode>,
+    /// Command topic; `None` follows `[node] topics.command`.
+    pub command_topic: Option<String>,
+    /// Joint-state topic.
+    pub joint_states_topic: String,
+    /// Reset topic (Float64MultiArray of the controlled joints' positions, rad or m).
+    pub reset_topic: String,
+    /// Initial positions of the controlled joints (rad or m), in the robot's order;
+    /// `None` → `[check] reference_q` if present, else zeros.
+    pub initial_q: Option<Vec<f64>>,
+    /// Command latency (s).
+    pub latency_s: f64,
+    /// Uniform jitter added to the latency (± s).
+    pub jitter_s: f64,
+    /// Standard deviation of the position noise on published joint states (rad or m).
+    pub noise_std: f64,
+    /// Probability of losing a command (0–1).
+    pub drop_probability: f64,
+    /// Fault kind, if any.
+    pub fault: Option<FaultKind>,
+    /// Time after start when the fault begins (s).
+    pub fault_after_s: f64,
+    /// Random seed for jitter, noise and drops.
+    pub seed: u64,
+    /// Tolerance for counting a limit violation (rad, rad/s).
+    pub violation_tolerance: f64,
+}
+
+impl Default for MockHwConfig {
+    fn default() -> Self {
+        Self {
+            name: "mock_hw".into(),
+            rate_hz: 200.0,
+            command: None,
+            command_topic: None,
+            joint_states_topic: "/joint_states".into(),
+            reset_topic: "/mock_hw/reset".into(),
+            initial_q: None,
+            latency_s: 0.0,
+            jitter_s: 0.0,
+            noise_std: 0.0,
+            drop_probability: 0.0,
+            fault: None,
+            fault_after_s: 0.0,
+            seed: 0,
+            violation_tolerance: 1e-6,
+        }
+    }
+}
+
+impl MockHwConfig {
+    /// Checks rates and probabilities; says what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        if !pos(self.rate_hz) {
+            return Err(format!("rate_hz = {} must be positive", self.rate_hz));
+        }
+        for (k, v) in [
+            ("latency_s", self.latency_s),
+            ("jitter_s", self.jitter_s),
+            ("noise_std", self.noise_std),
+            ("fault_after_s", self.fault_after_s),
+            ("violation_tolerance", self.violation_tolerance),
+        ] {
+            if !nonneg(v) {
+                return Err(format!("{k} = {v} must be finite and >= 0"));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.drop_probability) {
+            return Err(format!(
+                "drop_probability = {} must be in [0, 1]",
+                self.drop_probability
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One limit violation seen by the mock hardware.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Violation {
+    /// Simulation time (s).
+    pub time_s: f64,
+    /// Joint name.
+    pub joint: String,
+    /// `position` or `velocity`.
+    pub kind: &'static str,
+    /// The offending value (rad or rad/s).
+    pub value: f64,
+    /// The bound it crossed (rad or rad/s).
+    pub bound: f64,
+}
+
+/// Counters of a mock-hardware run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct MockHwSummary {
+    /// Simulation steps (count).
+    pub steps: u64,
+    /// Commands received (count).
+    pub commands_received: u64,
+    /// Commands dropped on purpose (count).
+    pub commands_dropped: u64,
+    /// Commands rejected (wrong length or non-finite) (count).
+    pub commands_invalid: u64,
+    /// Joint states published (count).
+    pub joint_states_published: u64,
+    /// Resets applied (count).
+    pub resets: u64,
+    /// Limit violations (count); the first 100 are listed.
+    pub violation_count: u64,
+    /// The first violations.
+    pub violations: Vec<Violation>,
+    /// Largest |velocity| seen per controlled joint (rad/s).
+    pub max_abs_velocity: Vec<f64>,
+}
+
+/// The simulated robot (no DDS). Positions of all movable URDF joints; the controlled ones
+/// follow commands.
+pub struct MockHardware {
+    cfg: MockHwConfig,
+    mode: OutputMode,
+    /// All movable joint names (URDF order).
+    pub names: Vec<String>,
+    /// Index into `names` of each controlled joint.
+    controlled: Vec<usize>,
+    limits: Vec<JointLimits>,
+    q: Vec<f64>,
+    cmd: Vec<f64>,
+    has_cmd: bool,
+    pending: Vec<(f64, Vec<f64>)>,
+    rng: StdRng,
+    time_s: f64,
+    summary: MockHwSummary,
+}
+
+impl MockHardware {
+    /// A robot with all movable joints of `model`; `controlled` are the commanded joints (in
+    /// command order) starting at `initial_q`; other joints start at `held` values or 0.
+    pub fn new(
+        model: &RobotModel,
+        controlled: &[String],
+        limits: &[JointLimits],
+        held: &std::collections::BTreeMap<String, f64>,
+        initial_q: &[f64],
+        mode: OutputMode,
+        cfg: MockHwConfig,
+    ) -> Result<Self, String> {
+        cfg.validate()?;
+        if initial_q.len() != controlled.len() || limits.len() != controlled.len() {
+            return Err(format!(
+                "initial_q has {} values, limits {}, controlled joints {}",
+                initial_q.len(),
+                limits.len(),
+                controlled.len()
+            ));
+        }
+        let names: Vec<String> = model
+            .joints
+            .iter()
+            .filter(|j| j.kind != crate::kinematics::JointKind::Fixed)
+            .map(|j| j.name.clone())
+            .collect();
+        let mut q: Vec<f64> = names
+            .iter()
+            .map(|n| held.get(n).copied().unwrap_or(0.0))
+            .collect();
+        let mut idx = Vec::with_capacity(controlled.len());
+        for (c, &q0) in controlled.iter().zip(initial_q) {
+            let i = names
+                .iter()
+                .position(|n| n == c)
+                .ok_or_else(|| format!("controlled joint `{c}` is not a movable URDF joint"))?;
+            if !q0.is_finite() {
+                return Err(format!("initial_q for `{c}` is not finite"));
+            }
+            q[i] = q0;
+            idx.push(i);
+        }
+        let n = controlled.len();
+        let rng = StdRng::seed_from_u64(cfg.seed);
+        Ok(Self {
+            mode,
+            names,
+            controlled: idx,
+            limits: limits.to_vec(),
+            q,
+            cmd: vec![0.0; n],
+            has_cmd: false,
+            pending: Vec::new(),
+            rng,
+            time_s: 0.0,
+            summary: MockHwSummary {
+                max_abs_velocity: vec![0.0; n],
+                ..Default::default()
+            },
+            cfg,
+        })
+    }
+
+    /// Simulation time (s).
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// The run's counters so far.
+    pub fn summary(&self) -> &MockHwSummary {
+        &self.summary
+    }
+
+    /// True positions of all joints (rad or m), no noise.
+    pub fn positions(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// Receives a command (velocities or positions of the controlled joints). Returns false
+    /// when it is invalid (length, non-finite) and therefore ignored.
+    pub fn command(&mut self, data: &[f64]) -> bool {
+        self.summary.commands_received += 1;
+        if data.len() != self.controlled.len() || data.iter().any(|x| !x.is_finite()) {
+            self.summary.commands_invalid += 1;
+            return false;
+        }
+        if self.cfg.drop_probability > 0.0 && self.rng.random::<f64>() < self.cfg.drop_probability {
+            self.summary.commands_dropped += 1;
+            return true;
+        }
+        let jitter = if self.cfg.jitter_s > 0.0 {
+            self.rng
+                .random_range(-self.cfg.jitter_s..=self.cfg.jitter_s)
+        } else {
+            0.0
+        };
+        let at = self.time_s + (self.cfg.latency_s + jitter).max(0.0);
+        self.pending.push((at, data.to_vec()));
+        true
+    }
+
+    /// Teleports the controlled joints to `q` and clears commands (simulation only).
+    pub fn reset(&mut self, q: &[f64]) -> bool {
+        if q.len() != self.controlled.len() || q.iter().any(|x| !x.is_finite()) {
+            return false;
+        }
+        for (k, &i) in self.controlled.iter().enumerate() {
+            self.q[i] = q[k];
+        }
+        self.cmd.fill(0.0);
+        self.has_cmd = false;
+        self.pending.clear();
+        self.summary.resets += 1;
+        true
+    }
+
+    fn faulted(&self) -> Option<FaultKind> {
+        self.cfg
+            .fault
+            .filter(|_| self.time_s >= self.cfg.fault_after_s)
+    }
+
+    /// Advances the simulation by `dt` (s).
+    pub fn step(&mut self, dt: f64) {
+        self.summary.steps += 1;
+        let now = self.time_s + dt;
+        // Apply due commands in arrival order (the latest due one wins).
+        let mut k = 0;
+        while k < self.pending.len() {
+            if self.pending[k].0 <= now {
+                let (_, c) = self.pending.remove(k);
+                self.cmd = c;
+                self.has_cmd = true;
+            } else {
+                k += 1;
+            }
+        }
+        if self.faulted() != Some(FaultKind::Frozen) && self.has_cmd {
+            for k in 0..self.controlled.len() {
+                let i = self.controlled[k];
+                let before = self.q[i];
+                let v = match self.mode {
+                    OutputMode::Velocity => {
+                        self.q[i] += dt * self.cmd[k];
+                        self.cmd[k]
+                    }
+                    OutputMode::Position | OutputMode::Trajectory => {
+                        self.q[i] = self.cmd[k];
+                        (self.q[i] - before) / dt
+                    }
+                };
+                let m = &mut self.summary.max_abs_velocity[k];
+                *m = m.max(v.abs());
+                self.check(k, v);
+            }
+        }
+        self.time_s = now;
+    }
+
+    fn check(&mut self, k: usize, v: f64) {
+        let l = self.limits[k];
+        let q = self.q[self.controlled[k]];
+        let tol = self.cfg.violation_tolerance;
+        let mut found = Vec::new();
+        if q > l.upper + tol {
+            found.push(("position", q, l.upper));
+        } else if q < l.lower - tol {
+            found.push(("position", q, l.lower));
+        }
+        if v.abs() > l.velocity + tol {
+            found.push(("velocity", v, l.velocity.copysign(v)));
+        }
+        for (kind, value, bound) in found {
+            let joint = self.names[self.controlled[k]].clone();
+            eprintln!(
+                "mock_hw: LIMIT VIOLATION at t = {:.3} s: {joint} {kind} {value:.6} beyond {bound:.6}",
+                self.time_s
+            );
+            self.summary.violation_count += 1;
+            if self.summary.violations.len() < 100 {
+                self.summary.violations.push(Violation {
+                    time_s: self.time_s,
+                    joint,
+                    kind,
+                    value,
+                    bound,
+                });
+            }
+        }
+    }
+
+    /// Positions to publish (with noise) into `out` (all joints); false when silent.
+    pub fn measured(&mut self, out: &mut Vec<f64>) -> bool {
+        if self.faulted() == Some(FaultKind::Silent) {
+            return false;
+        }
+        out.clear();
+        out.extend_from_slice(&self.q);
+        if self.cfg.noise_std > 0.0 {
+            for x in out.iter_mut() {
+                // Box–Muller.
+                let u1: f64 = self.rng.random::<f64>().max(1e-300);
+                let u2: f64 = self.rng.random();
+                *x += self.cfg.noise_std
+                    * (-2.0 * u1.ln()).sqrt()
+                    * (2.0 * std::f64::consts::PI * u2).cos();
+            }
+        }
+        self.summary.joint_states_published += 1;
+        true
+    }
+}
