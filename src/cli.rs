@@ -8,6 +8,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 use crossym::config::Config;
 
+mod demo;
 mod ros;
 
 /// Cross-space symmetry compositions for robot policies.
@@ -63,6 +64,10 @@ enum Command {
         #[arg(long, default_value = "results")]
         out: PathBuf,
     },
+    /// The main job: mock hardware + node (in a private network namespace), symmetry
+    /// conditions published as a user would, a per-condition table and a PNG of the letters.
+    /// Exits 1 if a check failed (limit violation, RMSE ratio, node error).
+    Demo(demo::DemoArgs),
     /// Run the ROS 2 node: joint states + symmetry condition → policy → safety QP → command.
     /// Honours ROS_DOMAIN_ID, ROS_LOCALHOST_ONLY, ROS_AUTOMATIC_DISCOVERY_RANGE.
     Node {
@@ -99,6 +104,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Info { config, q } => info(&config, q),
         Command::Check { config } => check(&config),
+        Command::Demo(a) => demo::demo(&a),
         Command::Node { config, overrides } => ros::node(&config, &overrides),
         Command::MockHw {
             config,

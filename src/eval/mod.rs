@@ -7,6 +7,8 @@
 //! (default 3.0, the width of the normalised letter box); diverging rollouts stay in the
 //! mean ± std, as in the paper, and are counted.
 
+pub mod plot;
+
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

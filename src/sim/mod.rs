@@ -122,14 +122,14 @@ impl MockHwConfig {
 }
 
 /// One limit violation seen by the mock hardware.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Violation {
     /// Simulation time (s).
     pub time_s: f64,
     /// Joint name.
     pub joint: String,
     /// `position` or `velocity`.
-    pub kind: &'static str,
+    pub kind: String,
     /// The offending value (rad or rad/s).
     pub value: f64,
     /// The bound it crossed (rad or rad/s).
@@ -137,7 +137,7 @@ pub struct Violation {
 }
 
 /// Counters of a mock-hardware run.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct MockHwSummary {
     /// Simulation steps (count).
     pub steps: u64,
@@ -362,7 +362,7 @@ impl MockHardware {
                 self.summary.violations.push(Violation {
                     time_s: self.time_s,
                     joint,
-                    kind,
+                    kind: kind.to_string(),
                     value,
                     bound,
                 });

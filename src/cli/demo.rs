@@ -1,0 +1,410 @@
+//! `crossym demo`: the main job. Mock hardware + node as processes, this process as the
+//! user publishing symmetry conditions, a per-condition table and a PNG of the letters.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitCode, Stdio};
+use std::time::Duration;
+
+use anyhow::Context;
+use crossym::config::Config;
+use crossym::data::augmentation::nominal_trajectories;
+use crossym::eval::plot::{write_paths_png, PathPanel};
+use crossym::eval::{score, EvalConfig};
+use crossym::policy::Policy;
+use crossym::ros::dds::{DdsSettings, DiscoveryRange};
+use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
+use crossym::sim::MockHwSummary;
+use crossym::symmetry::compose::Condition;
+
+/// Options of `crossym demo`.
+#[derive(Debug, clap::Args)]
+pub struct DemoArgs {
+    /// Config file (TOML) with [robot], [letters], [[symmetries]], [composition], [node].
+    #[arg(long, short, default_value = "config/letters.toml")]
+    pub config: PathBuf,
+    /// Test demonstration to draw (1-based; default: the first of `[letters] test`).
+    #[arg(long)]
+    pub demo: Option<usize>,
+    /// Conditions `theta_rad:scale:reflection`, repeatable; default: original, rotated
+    /// 30°, scaled 0.8, reflected, and all three composed.
+    #[arg(long = "condition", allow_hyphen_values = true)]
+    pub conditions: Vec<String>,
+    /// Draw only the first seconds of each letter (default: the whole letter).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Output directory for `demo.md`, `demo.csv`, `demo.png` and the process logs.
+    #[arg(long, default_value = "results/demo")]
+    pub out: PathBuf,
+    /// Largest accepted ratio closed-loop RMSE / offline-rollout RMSE.
+    #[arg(long, default_value_t = 1.5)]
+    pub max_ratio: f64,
+    /// Do not re-run inside a private network namespace (then ROS_LOCALHOST_ONLY=1 is
+    /// still set for every process).
+    #[arg(long)]
+    pub no_isolation: bool,
+}
+
+const NETNS_ENV: &str = "CROSSYM_PRIVATE_NETNS";
+
+/// Re-executes this command inside `unshare --net` with loopback multicast (the network
+/// rule: DDS discovery never leaves the machine). Returns `None` when already inside.
+fn isolate() -> anyhow::Result<Option<ExitCode>> {
+    if std::env::var_os(NETNS_ENV).is_some() {
+        return Ok(None);
+    }
+    let exe = std::env::current_exe().context("locating the crossym executable")?;
+    let status = Command::new("unshare")
+        .args([
+            "--net",
+            "--",
+            "bash",
+            "-c",
+            "ip link set lo up && ip link set lo multicast on && \
+             ip route add 224.0.0.0/4 dev lo && exec \"$@\"",
+            "crossym-netns",
+        ])
+        .arg(exe)
+        .args(std::env::args_os().skip(1))
+        .env(NETNS_ENV, "1")
+        .status()
+        .context(
+            "running `unshare --net` (needs util-linux and permission to create a network \
+             namespace; use --no-isolation to run with ROS_LOCALHOST_ONLY=1 only)",
+        )?;
+    Ok(Some(match status.code() {
+        Some(0) => ExitCode::SUCCESS,
+        Some(c) => ExitCode::from(c.clamp(1, 255) as u8),
+        None => ExitCode::from(2),
+    }))
+}
+
+fn parse_condition(s: &str) -> anyhow::Result<(String, Condition)> {
+    let parts: Vec<&str> = s.split(':').collect();
+    anyhow::ensure!(
+        parts.len() == 3,
+        "--condition `{s}`: expected theta_rad:scale:reflection"
+    );
+    let c = Condition {
+        theta: parts[0]
+            .parse()
+            .with_context(|| format!("theta in `{s}`"))?,
+        scale: parts[1]
+            .parse()
+            .with_context(|| format!("scale in `{s}`"))?,
+        reflection: parts[2]
+            .parse()
+            .with_context(|| format!("reflection in `{s}`"))?,
+    };
+    c.validate()
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("--condition `{s}`"))?;
+    Ok((s.to_string(), c))
+}
+
+fn default_conditions() -> Vec<(String, Condition)> {
+    let r = std::f64::consts::FRAC_PI_6;
+    let c = |theta, scale, reflection| Condition {
+        theta,
+        scale,
+        reflection,
+    };
+    vec![
+        ("original".into(), c(0.0, 1.0, 1)),
+        ("rotated 30°".into(), c(r, 1.0, 1)),
+        ("scaled 0.8".into(), c(0.0, 0.8, 1)),
+        ("reflected".into(), c(0.0, 1.0, -1)),
+        ("rot 30° + scale 0.8 + refl".into(), c(r, 0.8, -1)),
+    ]
+}
+
+/// A child process that is terminated (SIGTERM, then killed) when dropped.
+struct Proc {
+    name: &'static str,
+    child: Option<Child>,
+}
+
+impl Proc {
+    fn spawn(name: &'static str, mut cmd: Command, log: &Path) -> anyhow::Result<Self> {
+        let f = std::fs::File::create(log).with_context(|| format!("{}", log.display()))?;
+        let child = cmd
+            .stdout(Stdio::from(f.try_clone()?))
+            .stderr(Stdio::from(f))
+            .spawn()
+            .with_context(|| format!("starting {name}"))?;
+        Ok(Self {
+            name,
+            child: Some(child),
+        })
+    }
+
+    /// SIGTERM and wait (up to 10 s); the exit code.
+    fn stop(&mut self) -> anyhow::Result<i32> {
+        let Some(mut c) = self.child.take() else {
+            return Ok(0);
+        };
+        if let Some(status) = c.try_wait()? {
+            anyhow::bail!("{} exited early with {status}", self.name);
+        }
+        let _ = Command::new("kill")
+            .args(["-TERM", &c.id().to_string()])
+            .status();
+        for _ in 0..100 {
+            if let Some(s) = c.try_wait()? {
+                return Ok(s.code().unwrap_or(-1));
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let _ = c.kill();
+        anyhow::bail!("{} did not stop within 10 s of SIGTERM", self.name)
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// `crossym demo`.
+pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
+    if !a.no_isolation {
+        if let Some(code) = isolate()? {
+            return Ok(code);
+        }
+    }
+    let cfg = Config::from_file(&a.config)?;
+    let node_cfg = super::ros::node_config(&cfg, &super::ros::NodeOverrides::default())?;
+    let hw_cfg = cfg.mock_hw.clone().unwrap_or_default();
+    let robot = cfg.load_robot()?;
+    let kin = &robot.kinematics;
+    let letters = cfg
+        .letters
+        .as_ref()
+        .with_context(|| format!("{}: no [letters] section", a.config.display()))?;
+    let demos = letters.build(kin, &cfg.base_dir)?;
+    let which = a
+        .demo
+        .or_else(|| demos.test.first().copied())
+        .context("no test demonstration")?;
+    let demo = demos
+        .demos
+        .iter()
+        .find(|d| d.demo == which)
+        .with_context(|| format!("no demonstration {which}"))?;
+    let conditions = if a.conditions.is_empty() {
+        default_conditions()
+    } else {
+        a.conditions
+            .iter()
+            .map(|s| parse_condition(s))
+            .collect::<anyhow::Result<_>>()?
+    };
+    let policy_path = node_cfg
+        .policy
+        .clone()
+        .context("[node] policy is not set")?;
+    let policy = Policy::load(&policy_path)?;
+    println!(
+        "crossym demo: {} on {} ({} joints), demo {which}, policy {}",
+        a.config.display(),
+        kin.robot,
+        kin.dof(),
+        policy_path.display()
+    );
+    let conds: Vec<Condition> = conditions.iter().map(|c| c.1).collect();
+    let nominal = nominal_trajectories(&cfg, kin, demo, &conds).map_err(anyhow::Error::msg)?;
+    let mut steps = Vec::new();
+    for ((label, c), aug) in conditions.iter().zip(nominal) {
+        let mut t = aug.traj;
+        if let Some(d) = a.duration_s {
+            anyhow::ensure!(d > 0.0, "--duration-s must be positive");
+            let keep = ((d / t.dt).round() as usize + 1).clamp(2, t.len());
+            t.q.truncate(keep * t.n);
+            t.qdot.truncate(keep * t.n);
+            t.x.truncate(keep * t.m);
+        }
+        steps.push(ScenarioStep {
+            label: label.clone(),
+            condition: *c,
+            nominal: t,
+        });
+    }
+    let offline: Vec<f64> = steps
+        .iter()
+        .map(|s| {
+            score(
+                &policy,
+                kin,
+                &s.nominal,
+                &s.condition,
+                &EvalConfig::default(),
+            )
+            .rmse
+        })
+        .collect();
+
+    std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
+    let exe = std::env::current_exe()?;
+    let mut settings = DdsSettings::from_env()?;
+    settings.range = DiscoveryRange::Localhost;
+    let child = |sub: &str| {
+        let mut c = Command::new(&exe);
+        c.arg(sub)
+            .arg("--config")
+            .arg(&a.config)
+            .env("ROS_LOCALHOST_ONLY", "1")
+            .env("ROS_DOMAIN_ID", settings.domain_id.to_string());
+        c
+    };
+    let summary_path = a.out.join("mock_hw_summary.json");
+    let _ = std::fs::remove_file(&summary_path);
+    let mut hw_cmd = child("mock-hw");
+    hw_cmd.arg("--summary").arg(&summary_path);
+    let mut hw = Proc::spawn("mock-hw", hw_cmd, &a.out.join("mock_hw.log"))?;
+    let mut node = Proc::spawn("node", child("node"), &a.out.join("node.log"))?;
+    println!(
+        "  started mock-hw and node (domain {}, localhost only); logs in {}",
+        settings.domain_id,
+        a.out.display()
+    );
+    let topics = ScenarioTopics::new(&node_cfg, &hw_cfg.reset_topic);
+    let results = scenario::run(
+        settings,
+        &topics,
+        kin,
+        kin.joint_names(),
+        &steps,
+        Duration::from_secs(30),
+    );
+    let node_rc = node.stop();
+    let hw_rc = hw.stop();
+    let results = results?;
+    let node_rc = node_rc?;
+    let hw_rc = hw_rc?;
+    let summary: MockHwSummary = {
+        let text = std::fs::read_to_string(&summary_path)
+            .with_context(|| format!("reading {}", summary_path.display()))?;
+        serde_json::from_str(&text).context("mock-hw summary")?
+    };
+
+    // Report.
+    let mut md = String::from(
+        "| # | condition | θ (rad) | λ | σ | RMSE closed loop | RMSE offline rollout | ratio | samples | status on a bound | tick median / max (µs) |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut csv = String::from(
+        "step,label,theta,scale,reflection,rmse_closed_loop,rmse_offline,ratio,samples,statuses_on_bound,statuses,tick_median_us,tick_max_us\n",
+    );
+    let mut failures = Vec::new();
+    for (i, (r, off)) in results.iter().zip(&offline).enumerate() {
+        let ratio = r.rmse / off.max(1e-12);
+        md.push_str(&format!(
+            "| {} | {} | {:.4} | {} | {} | {:.4} | {:.4} | {:.2} | {} | {}/{} | {:.1} / {:.1} |\n",
+            i + 1,
+            r.label,
+            r.theta,
+            r.scale,
+            r.reflection,
+            r.rmse,
+            off,
+            ratio,
+            r.samples,
+            r.statuses_on_bound,
+            r.statuses,
+            r.tick_median_us,
+            r.tick_max_us
+        ));
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            i + 1,
+            r.label,
+            r.theta,
+            r.scale,
+            r.reflection,
+            r.rmse,
+            off,
+            ratio,
+            r.samples,
+            r.statuses_on_bound,
+            r.statuses,
+            r.tick_median_us,
+            r.tick_max_us
+        ));
+        if !(r.rmse.is_finite() && ratio <= a.max_ratio) {
+            failures.push(format!(
+                "step {} ({}): closed-loop RMSE {:.4} is {:.2}× the offline rollout's {:.4} (limit {}×)",
+                i + 1,
+                r.label,
+                r.rmse,
+                ratio,
+                off,
+                a.max_ratio
+            ));
+        }
+        if !r.abnormal_codes.is_empty() {
+            failures.push(format!(
+                "step {} ({}): node status codes {:?} seen",
+                i + 1,
+                r.label,
+                r.abnormal_codes
+            ));
+        }
+    }
+    if summary.violation_count > 0 {
+        failures.push(format!(
+            "mock hardware saw {} limit violations (first: {:?})",
+            summary.violation_count,
+            summary.violations.first()
+        ));
+    }
+    if node_rc != 0 {
+        failures.push(format!("node exited with {node_rc}"));
+    }
+    if hw_rc != 0 {
+        failures.push(format!("mock-hw exited with {hw_rc}"));
+    }
+    md.push_str(&format!(
+        "\nMock hardware: {} steps, {} commands received, {} invalid, {} limit violations; largest |q̇| per joint (rad/s): {:?}.\n",
+        summary.steps,
+        summary.commands_received,
+        summary.commands_invalid,
+        summary.violation_count,
+        summary
+            .max_abs_velocity
+            .iter()
+            .map(|v| (v * 1000.0).round() / 1000.0)
+            .collect::<Vec<_>>()
+    ));
+    md.push_str("\nFigure `demo.png`: one panel per step, in table order; grey = nominal letters (transformed demonstration), colour = executed end-effector paths (blue left arm, red right arm).\n");
+    let panels: Vec<PathPanel> = results
+        .iter()
+        .zip(&steps)
+        .map(|(r, s)| PathPanel {
+            m: s.nominal.m,
+            nominal: s.nominal.x.clone(),
+            executed: r.path.clone(),
+        })
+        .collect();
+    let png = a.out.join("demo.png");
+    write_paths_png(&png, &panels, 360).map_err(anyhow::Error::msg)?;
+    std::fs::write(a.out.join("demo.md"), &md)?;
+    std::fs::write(a.out.join("demo.csv"), &csv)?;
+    println!("{md}");
+    println!(
+        "  wrote {}, {}, {}",
+        a.out.join("demo.md").display(),
+        a.out.join("demo.csv").display(),
+        png.display()
+    );
+    if failures.is_empty() {
+        println!("demo: OK");
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for f in &failures {
+            eprintln!("demo: FAILED: {f}");
+        }
+        Ok(ExitCode::from(1))
+    }
+}
