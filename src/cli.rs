@@ -89,6 +89,10 @@ enum Command {
         /// Initial positions of the controlled joints (rad), comma-separated.
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         initial_q: Option<Vec<f64>>,
+        /// How commands are interpreted (velocity, position, trajectory); default: [mock_hw]
+        /// command, else the node's output.
+        #[arg(long)]
+        command: Option<String>,
     },
     /// Transfer and compose the configured symmetries and print the numerical checks.
     /// Exits 1 when a requested composition is impossible or a transfer fails.
@@ -110,7 +114,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             config,
             summary,
             initial_q,
-        } => ros::mock_hw(&config, summary.as_deref(), initial_q),
+            command,
+        } => ros::mock_hw(&config, summary.as_deref(), initial_q, command.as_deref()),
         Command::Augment { config } => augment(&config),
         Command::Train {
             config,

@@ -123,6 +123,7 @@ pub fn mock_hw(
     path: &Path,
     summary: Option<&Path>,
     initial_q: Option<Vec<f64>>,
+    command: Option<&str>,
 ) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(path)?;
     let node = node_config(&cfg, &NodeOverrides::default())?;
@@ -137,7 +138,10 @@ pub fn mock_hw(
         .or_else(|| hw_cfg.initial_q.clone())
         .or_else(|| cfg.check.reference_q.clone())
         .unwrap_or_else(|| vec![0.0; kin.dof()]);
-    let mode = hw_cfg.command.unwrap_or(node.output);
+    let mode = match command {
+        Some(c) => parse_output(c).map_err(anyhow::Error::msg)?,
+        None => hw_cfg.command.unwrap_or(node.output),
+    };
     let topic = hw_cfg
         .command_topic
         .clone()

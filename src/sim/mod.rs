@@ -68,6 +68,9 @@ pub struct MockHwConfig {
     pub seed: u64,
     /// Tolerance for counting a limit violation (rad, rad/s).
     pub violation_tolerance: f64,
+    /// After a reset, commands arriving within this time (s) are discarded: they were
+    /// computed from the pre-reset state (a teleport is a simulation-only event).
+    pub reset_settle_s: f64,
 }
 
 impl Default for MockHwConfig {
@@ -88,6 +91,7 @@ impl Default for MockHwConfig {
             fault_after_s: 0.0,
             seed: 0,
             violation_tolerance: 1e-6,
+            reset_settle_s: 0.05,
         }
     }
 }
@@ -106,6 +110,7 @@ impl MockHwConfig {
             ("noise_std", self.noise_std),
             ("fault_after_s", self.fault_after_s),
             ("violation_tolerance", self.violation_tolerance),
+            ("reset_settle_s", self.reset_settle_s),
         ] {
             if !nonneg(v) {
                 return Err(format!("{k} = {v} must be finite and >= 0"));
@@ -145,6 +150,8 @@ pub struct MockHwSummary {
     pub commands_received: u64,
     /// Commands dropped on purpose (count).
     pub commands_dropped: u64,
+    /// Commands discarded inside a reset's settle window (count).
+    pub commands_discarded: u64,
     /// Commands rejected (wrong length or non-finite) (count).
     pub commands_invalid: u64,
     /// Joint states published (count).
@@ -157,6 +164,8 @@ pub struct MockHwSummary {
     pub violations: Vec<Violation>,
     /// Largest |velocity| seen per controlled joint (rad/s).
     pub max_abs_velocity: Vec<f64>,
+    /// The last valid command received (velocities or positions of the controlled joints).
+    pub last_command: Vec<f64>,
 }
 
 /// The simulated robot (no DDS). Positions of all movable URDF joints; the controlled ones
@@ -175,6 +184,7 @@ pub struct MockHardware {
     pending: Vec<(f64, Vec<f64>)>,
     rng: StdRng,
     time_s: f64,
+    reset_at_s: Option<f64>,
     summary: MockHwSummary,
 }
 
@@ -234,6 +244,7 @@ impl MockHardware {
             pending: Vec::new(),
             rng,
             time_s: 0.0,
+            reset_at_s: None,
             summary: MockHwSummary {
                 max_abs_velocity: vec![0.0; n],
                 ..Default::default()
@@ -265,6 +276,15 @@ impl MockHardware {
             self.summary.commands_invalid += 1;
             return false;
         }
+        self.summary.last_command.clear();
+        self.summary.last_command.extend_from_slice(data);
+        if self
+            .reset_at_s
+            .is_some_and(|t| self.time_s - t < self.cfg.reset_settle_s)
+        {
+            self.summary.commands_discarded += 1;
+            return true;
+        }
         if self.cfg.drop_probability > 0.0 && self.rng.random::<f64>() < self.cfg.drop_probability {
             self.summary.commands_dropped += 1;
             return true;
@@ -291,6 +311,7 @@ impl MockHardware {
         self.cmd.fill(0.0);
         self.has_cmd = false;
         self.pending.clear();
+        self.reset_at_s = Some(self.time_s);
         self.summary.resets += 1;
         true
     }

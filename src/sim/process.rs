@@ -84,11 +84,6 @@ pub fn run(
             tokio::select! {
                 _ = &mut signals => break,
                 _ = timer.tick() => {
-                    while let Ok(Some((m, _))) = reset_sub.take() {
-                        if !hw.reset(&m.data) {
-                            eprintln!("mock_hw: ignored reset with {} values", m.data.len());
-                        }
-                    }
                     match &cmd_sub {
                         Cmd::Array(s) => loop {
                             match s.take() {
@@ -107,6 +102,11 @@ pub fn run(
                                 Err(e) => { eprintln!("mock_hw: undecodable command: {e:?}"); break; }
                             }
                         },
+                    }
+                    while let Ok(Some((m, _))) = reset_sub.take() {
+                        if !hw.reset(&m.data) {
+                            eprintln!("mock_hw: ignored reset with {} values", m.data.len());
+                        }
                     }
                     hw.step(dt);
                     if hw.measured(&mut positions) {

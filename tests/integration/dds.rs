@@ -1,0 +1,371 @@
+//! Real DDS traffic between processes (run inside `../shared/tools/netns-run`, as `.ci/run`
+//! does): the node and the mock hardware as child processes, the closed loop driven by the
+//! library's scenario runner, and an independent Python peer (PyPI `cyclonedds`).
+//! Each test uses its own ROS_DOMAIN_ID so tests running in parallel do not see each other.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use crossym::config::Config;
+use crossym::data::augmentation::nominal_trajectories;
+use crossym::eval::{score, EvalConfig};
+use crossym::policy::Policy;
+use crossym::ros::dds::{DdsSettings, DiscoveryRange};
+use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
+use crossym::sim::MockHwSummary;
+use crossym::symmetry::compose::Condition;
+
+use crate::common;
+
+fn exe() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_crossym"))
+}
+
+fn letters_config() -> PathBuf {
+    common::root().join("config/letters.toml")
+}
+
+/// A child process killed on drop; `term` sends SIGTERM and returns the exit code.
+struct Proc {
+    child: Option<Child>,
+    name: String,
+}
+
+impl Proc {
+    fn spawn(name: &str, args: &[&str], domain: u16, log: &Path) -> Proc {
+        let f = std::fs::File::create(log).unwrap();
+        let child = Command::new(exe())
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_LOCALHOST_ONLY", "1")
+            .env("ROS_DISTRO", "humble")
+            .stdout(Stdio::from(f.try_clone().unwrap()))
+            .stderr(Stdio::from(f))
+            .spawn()
+            .unwrap_or_else(|e| panic!("starting {name}: {e}"));
+        Proc {
+            child: Some(child),
+            name: name.into(),
+        }
+    }
+
+    fn term(&mut self) -> i32 {
+        let mut c = self.child.take().expect("running");
+        assert!(
+            c.try_wait().unwrap().is_none(),
+            "{} exited before SIGTERM",
+            self.name
+        );
+        let ok = Command::new("kill")
+            .args(["-TERM", &c.id().to_string()])
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "kill -TERM {}", self.name);
+        for _ in 0..150 {
+            if let Some(s) = c.try_wait().unwrap() {
+                return s.code().unwrap_or(-1);
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let _ = c.kill();
+        panic!("{} did not stop within 15 s of SIGTERM", self.name);
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("crossym-dds-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn log_tail(p: &Path) -> String {
+    let s = std::fs::read_to_string(p).unwrap_or_default();
+    let lines: Vec<&str> = s.lines().collect();
+    lines[lines.len().saturating_sub(30)..].join("\n")
+}
+
+#[test]
+fn ros_environment_is_honoured() {
+    let env = |pairs: &'static [(&'static str, &'static str)]| {
+        move |k: &str| {
+            pairs
+                .iter()
+                .find(|(a, _)| *a == k)
+                .map(|(_, v)| v.to_string())
+        }
+    };
+    let s = DdsSettings::from_vars(env(&[])).unwrap();
+    assert_eq!((s.domain_id, s.range), (0, DiscoveryRange::Subnet));
+    let s = DdsSettings::from_vars(env(&[("ROS_DOMAIN_ID", "42"), ("ROS_LOCALHOST_ONLY", "1")]))
+        .unwrap();
+    assert_eq!((s.domain_id, s.range), (42, DiscoveryRange::Localhost));
+    let s = DdsSettings::from_vars(env(&[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")])).unwrap();
+    assert_eq!(s.range, DiscoveryRange::Localhost);
+    let s = DdsSettings::from_vars(env(&[("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET")])).unwrap();
+    assert_eq!(s.range, DiscoveryRange::Subnet);
+    for bad in [
+        &[("ROS_DOMAIN_ID", "233")][..],
+        &[("ROS_DOMAIN_ID", "abc")],
+        &[("ROS_LOCALHOST_ONLY", "yes")],
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF")],
+        &[("ROS_AUTOMATIC_DISCOVERY_RANGE", "LAN")],
+    ] {
+        let e = DdsSettings::from_vars(env(bad)).unwrap_err().to_string();
+        assert!(e.contains(bad[0].0), "{bad:?}: {e}");
+    }
+}
+
+#[test]
+fn topic_names_expand_like_ros() {
+    use crossym::ros::dds::expand_topic;
+    assert_eq!(expand_topic("~/status", "/", "crossym"), "/crossym/status");
+    assert_eq!(
+        expand_topic("~/status", "/robot", "crossym"),
+        "/robot/crossym/status"
+    );
+    assert_eq!(
+        expand_topic("/joint_states", "/robot", "n"),
+        "/joint_states"
+    );
+    assert_eq!(expand_topic("cmd", "/robot", "n"), "/robot/cmd");
+}
+
+/// Conditions switched mid-run while the node draws the letters: the closed-loop task-space
+/// RMSE stays within 1.5× of the offline rollout of the same policy, the mock hardware sees
+/// no limit violation, and SIGTERM leaves a zero-velocity command as the last one.
+fn closed_loop(domain: u16, output: &str, name: &str) {
+    let dir = tmp_dir(name);
+    let cfg_path = letters_config();
+    let cfg = Config::from_file(&cfg_path).unwrap();
+    let robot = cfg.load_robot().unwrap();
+    let kin = &robot.kinematics;
+    let demos = cfg
+        .letters
+        .as_ref()
+        .unwrap()
+        .build(kin, &cfg.base_dir)
+        .unwrap();
+    let demo = demos.demos.iter().find(|d| d.demo == 6).unwrap();
+    let conds = [
+        Condition::IDENTITY,
+        Condition {
+            theta: std::f64::consts::FRAC_PI_6,
+            scale: 0.8,
+            reflection: -1,
+        },
+        Condition {
+            theta: -std::f64::consts::FRAC_PI_4,
+            scale: 1.0,
+            reflection: 1,
+        },
+    ];
+    let nominal = nominal_trajectories(&cfg, kin, demo, &conds).unwrap();
+    let steps: Vec<ScenarioStep> = nominal
+        .into_iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let mut t = a.traj;
+            let keep = 201; // 2 s of each letter
+            t.q.truncate(keep * t.n);
+            t.qdot.truncate(keep * t.n);
+            t.x.truncate(keep * t.m);
+            ScenarioStep {
+                label: format!("step {i}"),
+                condition: a.condition,
+                nominal: t,
+            }
+        })
+        .collect();
+    let node_cfg = cfg.node.clone().unwrap();
+    let policy = Policy::load(cfg.resolve(node_cfg.policy.as_ref().unwrap())).unwrap();
+    let summary = dir.join("mock.json");
+    let cfg_s = cfg_path.to_str().unwrap();
+    let (hw_log, node_log) = (dir.join("mock.log"), dir.join("node.log"));
+    let mut hw = Proc::spawn(
+        "mock-hw",
+        &[
+            "mock-hw",
+            "--config",
+            cfg_s,
+            "--command",
+            output,
+            "--summary",
+            summary.to_str().unwrap(),
+        ],
+        domain,
+        &hw_log,
+    );
+    let mut node = Proc::spawn(
+        "node",
+        &["node", "--config", cfg_s, "--output", output],
+        domain,
+        &node_log,
+    );
+    let settings = DdsSettings {
+        domain_id: domain,
+        range: DiscoveryRange::Localhost,
+    };
+    let topics = ScenarioTopics::new(&node_cfg, "/mock_hw/reset");
+    let results = scenario::run(
+        settings,
+        &topics,
+        kin,
+        kin.joint_names(),
+        &steps,
+        Duration::from_secs(60),
+    )
+    .unwrap_or_else(|e| {
+        panic!(
+            "scenario: {e}\n--- node log\n{}\n--- mock log\n{}",
+            log_tail(&node_log),
+            log_tail(&hw_log)
+        )
+    });
+    assert_eq!(node.term(), 0, "node exit code\n{}", log_tail(&node_log));
+    std::thread::sleep(Duration::from_millis(300));
+    let hw_rc = hw.term();
+    let s: MockHwSummary =
+        serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
+    assert_eq!(s.violation_count, 0, "violations: {:?}", s.violations);
+    assert_eq!(hw_rc, 0);
+    assert!(s.commands_received > 300, "{s:?}");
+    assert_eq!(s.commands_invalid, 0);
+    assert_eq!(s.resets, steps.len() as u64);
+    // The final command on SIGTERM: zero velocity, or a hold at the measured pose.
+    if output == "velocity" {
+        assert!(
+            s.last_command.iter().all(|&v| v == 0.0),
+            "last command {:?}",
+            s.last_command
+        );
+    } else {
+        assert!(s.last_command.iter().all(|v| v.is_finite()));
+    }
+    for (r, st) in results.iter().zip(&steps) {
+        let off = score(
+            &policy,
+            kin,
+            &st.nominal,
+            &st.condition,
+            &EvalConfig::default(),
+        );
+        assert!(r.rmse.is_finite() && !off.diverged, "{r:?} / {off:?}");
+        assert!(
+            r.rmse <= 1.5 * off.rmse,
+            "{}: closed loop {} vs offline {} (> 1.5×)",
+            r.label,
+            r.rmse,
+            off.rmse
+        );
+        assert!(r.samples >= 190, "{}: {} samples", r.label, r.samples);
+        assert!(r.statuses >= 10, "{}: {} statuses", r.label, r.statuses);
+        assert!(r.abnormal_codes.is_empty(), "{r:?}");
+        assert!(r.tick_max_us > 0.0);
+    }
+}
+
+#[test]
+fn closed_loop_velocity_mode() {
+    closed_loop(61, "velocity", "vel");
+}
+
+#[test]
+fn closed_loop_position_mode() {
+    closed_loop(62, "position", "pos");
+}
+
+fn python_has_cyclonedds() -> bool {
+    Command::new("python3")
+        .args(["-c", "import cyclonedds"])
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false)
+}
+
+/// An independent DDS implementation (Eclipse Cyclone DDS, from Python) talks to the node
+/// with ROS 2 type names and QoS: commands and status flow, bad input is rejected with a
+/// reason while commands stay finite and inside the limits, stale input gives zeros.
+#[test]
+fn independent_cyclonedds_peer() {
+    assert!(
+        python_has_cyclonedds(),
+        "PyPI cyclonedds is missing: run `bash tests/peer/install.sh` (.ci/run does)"
+    );
+    let dir = tmp_dir("peer");
+    let domain = 63u16;
+    let node_log = dir.join("node.log");
+    let mut node = Proc::spawn(
+        "node",
+        &["node", "--config", letters_config().to_str().unwrap()],
+        domain,
+        &node_log,
+    );
+    for scenario in ["basic", "bad_input"] {
+        let json = dir.join(format!("{scenario}.json"));
+        let out = Command::new("python3")
+            .arg(common::root().join("tests/peer/dds_peer.py"))
+            .args(["--scenario", scenario, "--domain", &domain.to_string()])
+            .args(["--timeout", "30", "--json"])
+            .arg(&json)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "peer {scenario} failed ({:?}):\n{stdout}\n{}\n--- node log\n{}",
+            out.status.code(),
+            String::from_utf8_lossy(&out.stderr),
+            log_tail(&node_log)
+        );
+        assert!(stdout.contains(" 0 failed"), "{stdout}");
+    }
+    assert_eq!(node.term(), 0);
+}
+
+/// A broken config or policy is a clear error (exit 2), not a panic, and opens no DDS.
+#[test]
+fn node_refuses_bad_setup() {
+    let out = Command::new(exe())
+        .args(["node", "--config", "/nonexistent/crossym.toml"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("/nonexistent/crossym.toml"), "{err}");
+
+    let out = Command::new(exe())
+        .args(["node", "--config", letters_config().to_str().unwrap()])
+        .args(["--policy", "/nonexistent/pi.safetensors"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("/nonexistent/pi"), "{err}");
+
+    let out = Command::new(exe())
+        .args(["node", "--config", letters_config().to_str().unwrap()])
+        .arg("--period-s=-1")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("period_s"));
+
+    let out = Command::new(exe())
+        .args(["node", "--config", letters_config().to_str().unwrap()])
+        .env("ROS_DOMAIN_ID", "999")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("ROS_DOMAIN_ID"));
+}
