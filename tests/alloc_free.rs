@@ -427,31 +427,7 @@ fn rby1_is_allocation_free() {
 
 /// A policy with deterministic pseudo-random weights (hidden [128, 128, 128], tanh).
 fn tick_policy(n: usize, names: Vec<String>) -> crossym::policy::Policy {
-    use crossym::policy::{Activation, MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
-    let spec = MlpSpec {
-        input: n + 4,
-        hidden: vec![128, 128, 128],
-        output: n,
-        activation: Activation::Tanh,
-    };
-    let mut rng = StdRng::seed_from_u64(11);
-    let sizes = spec.layer_sizes();
-    let weights = sizes
-        .windows(2)
-        .map(|w| {
-            (0..w[0] * w[1])
-                .map(|_| rng.random_range(-0.2..0.2))
-                .collect()
-        })
-        .collect();
-    let biases = sizes[1..].iter().map(|&o| vec![0.01; o]).collect();
-    let mlp = MlpInference::new(spec, weights, biases).unwrap();
-    Policy::new(
-        Normalizer::identity(n),
-        mlp,
-        PolicyMeta::new("tick", names, serde_json::Value::Null),
-    )
-    .unwrap()
+    crossym::policy::Policy::synthetic(n, names, &[128, 128, 128], 11)
 }
 
 /// The whole control tick — FK + Jacobian, MLP forward, safety QP — allocates nothing once
@@ -560,4 +536,75 @@ fn control_tick_is_allocation_free() {
     } else {
         eprintln!("SKIP rby1 tick: ../shared/robots/rby1a/model.urdf absent");
     }
+}
+
+/// The node's own tick — latest-input handoff (`load_inputs`) + `NodeCore::tick` with the
+/// end-effector barrier — allocates nothing outside Clarabel's timers, and the I/O-side
+/// gate (`InputGate::on_joint_state`) allocates nothing either.
+#[test]
+fn node_core_tick_is_allocation_free() {
+    use crossym::config::Config;
+    use crossym::ros::{msg, NodeConfig, NodeCore};
+    use crossym::safety::{SafetySettings, SafetyStatus};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let robot = Config::from_file(root.join("config/letters.toml"))
+        .unwrap()
+        .load_robot()
+        .unwrap();
+    let kin = robot.kinematics;
+    let n = kin.dof();
+    let names = kin.joint_names().to_vec();
+    let policy = tick_policy(n, names.clone());
+    let safety = SafetySettings {
+        min_ee_distance: Some(0.5),
+        ..Default::default()
+    };
+    let limits = kin.limits().to_vec();
+    let mut core = NodeCore::new(kin, policy, safety, NodeConfig::default()).unwrap();
+    let mut gate = core.input_gate();
+    let mut cmd = core.command();
+    let mut m = msg::JointState {
+        name: names.clone(),
+        position: vec![0.0; n],
+        ..Default::default()
+    };
+    // A smooth path through the workspace (fast path) with a jump every 50 ticks (solver).
+    let mut rng = StdRng::seed_from_u64(21);
+    let mut base = random_q(&mut rng, &limits);
+    let (mut fast, mut solver_allocs) = (0usize, 0usize);
+    for k in 0..300 {
+        if k % 50 == 49 {
+            base = random_q(&mut rng, &limits);
+        }
+        for (j, (p, b)) in m.position.iter_mut().zip(&base).enumerate() {
+            *p = b + 0.2 * (0.02 * k as f64 + j as f64).sin();
+        }
+        let now = k as f64 * 0.01;
+        let (r, count, _) = count_allocs(|| gate.on_joint_state(&m, now));
+        assert!(r.is_ok());
+        assert_eq!(count, 0, "InputGate::on_joint_state allocated");
+        let (rep, count, first) = count_allocs(|| {
+            core.load_inputs(gate.inputs());
+            core.tick(now, &mut cmd)
+        });
+        assert!(cmd.velocities.iter().all(|v| v.is_finite()));
+        if rep.safety == Some(SafetyStatus::Filtered) && count > 0 {
+            let text = first.map(|b| b.to_string()).unwrap_or_default();
+            let inner = text
+                .lines()
+                .find(|l| l.contains("clarabel::") || l.contains("crossym::"))
+                .unwrap_or("");
+            assert!(
+                inner.contains("clarabel::timers"),
+                "node tick allocated outside Clarabel's timers:\n{text}"
+            );
+            solver_allocs += count;
+        } else {
+            let text = first.map(|b| b.to_string()).unwrap_or_default();
+            assert_eq!(count, 0, "node tick allocated:\n{text}");
+            fast += 1;
+        }
+    }
+    assert!(fast > 0, "no tick took an allocation-free path");
+    eprintln!("node tick: {fast} ticks with 0 allocations, {solver_allocs} Clarabel timer allocations on the solver path");
 }

@@ -376,6 +376,37 @@ impl Policy {
         Ok(p)
     }
 
+    /// A policy with deterministic pseudo-random weights (tanh, uniform in ±0.2, biases
+    /// 0.01) and an identity normaliser: the shape of a real one, for benchmarks and tests.
+    /// Not a trained policy.
+    pub fn synthetic(n: usize, joint_names: Vec<String>, hidden: &[usize], seed: u64) -> Self {
+        use rand::{Rng, SeedableRng};
+        let spec = MlpSpec {
+            input: n + 4,
+            hidden: hidden.to_vec(),
+            output: n,
+            activation: Activation::Tanh,
+        };
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let sizes = spec.layer_sizes();
+        let weights = sizes
+            .windows(2)
+            .map(|w| {
+                (0..w[0] * w[1])
+                    .map(|_| rng.random_range(-0.2..0.2))
+                    .collect()
+            })
+            .collect();
+        let biases = sizes[1..].iter().map(|&o| vec![0.01; o]).collect();
+        let mlp = MlpInference::new(spec, weights, biases).expect("synthetic shapes are valid");
+        Policy::new(
+            Normalizer::identity(n),
+            mlp,
+            PolicyMeta::new("synthetic", joint_names, serde_json::Value::Null),
+        )
+        .expect("synthetic policy is consistent")
+    }
+
     /// Consistency checks shared by [`Policy::new`], save and load.
     pub(crate) fn check(&self, path: &std::path::Path) -> Result<(), PolicyError> {
         let invalid = |field: &str, message: String| PolicyError::Invalid {

@@ -131,6 +131,32 @@ pub struct TrainConfig {
     /// Call the progress callback every this many iterations (> 0).
     #[serde(default = "d_log_every")]
     pub log_every: usize,
+    /// Samples between consecutive window points (≥ 1): the rollout steps by
+    /// `stride · Δt`, so a window spans `horizon · stride` samples.
+    #[serde(default = "d_one")]
+    pub stride: usize,
+    /// Horizon at the first iteration (0: no curriculum); grows linearly to `horizon` over
+    /// the first `curriculum_fraction` of the iterations.
+    #[serde(default)]
+    pub horizon_start: usize,
+    /// Fraction of the iterations over which the horizon grows (in `[0, 1]`).
+    #[serde(default)]
+    pub curriculum_fraction: f64,
+    /// Std of the Gaussian noise added to each window's start state (normalised units,
+    /// ≥ 0): the rollout must return to the demonstration (DART-like).
+    #[serde(default)]
+    pub start_noise: f64,
+    /// AdamW weight decay (≥ 0).
+    #[serde(default)]
+    pub weight_decay: f64,
+    /// Let windows run past a trajectory's end, holding its last sample (CONDOR's
+    /// padding): every sample starts a window and the policy learns to stop at the goal.
+    #[serde(default)]
+    pub pad_end: bool,
+}
+
+fn d_one() -> usize {
+    1
 }
 
 impl Default for TrainConfig {
@@ -146,11 +172,30 @@ impl Default for TrainConfig {
             batch_size: d_batch(),
             seed: 0,
             log_every: d_log_every(),
+            stride: 1,
+            horizon_start: 0,
+            curriculum_fraction: 0.0,
+            start_noise: 0.0,
+            weight_decay: 0.0,
+            pad_end: false,
         }
     }
 }
 
 impl TrainConfig {
+    /// Rollout horizon at 0-based iteration `k`: `horizon_start` growing linearly to
+    /// `horizon` over the first `curriculum_fraction` of the iterations (no curriculum
+    /// when `horizon_start` is 0).
+    pub fn horizon_at(&self, k: usize) -> usize {
+        let ramp = self.curriculum_fraction * self.iterations as f64;
+        if self.horizon_start == 0 || ramp < 1.0 || k as f64 >= ramp {
+            return self.horizon;
+        }
+        let p = k as f64 / ramp;
+        let h0 = self.horizon_start as f64;
+        (h0 + p * (self.horizon as f64 - h0)).round() as usize
+    }
+
     /// Checks every field's domain.
     pub fn validate(&self) -> Result<(), PolicyError> {
         let bad = |field: &str, message: String| {
@@ -194,6 +239,29 @@ impl TrainConfig {
         if self.log_every == 0 {
             return bad("log_every", "must be at least 1".into());
         }
+        if self.stride == 0 {
+            return bad("stride", "must be at least 1".into());
+        }
+        if self.horizon_start > self.horizon {
+            return bad(
+                "horizon_start",
+                format!("{} exceeds horizon {}", self.horizon_start, self.horizon),
+            );
+        }
+        if !(0.0..=1.0).contains(&self.curriculum_fraction) {
+            return bad(
+                "curriculum_fraction",
+                format!("{} must be in [0, 1]", self.curriculum_fraction),
+            );
+        }
+        for (field, v) in [
+            ("start_noise", self.start_noise),
+            ("weight_decay", self.weight_decay),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(field, format!("{v} must be finite and ≥ 0"));
+            }
+        }
         Ok(())
     }
 }
@@ -209,7 +277,7 @@ pub struct TrainReport {
     pub iterations: usize,
     /// Wall-clock time of the optimisation loop (s).
     pub seconds: f64,
-    /// Number of distinct windows sampled from.
+    /// Number of distinct windows (of the final horizon) sampled from.
     pub windows: usize,
     /// Trajectories skipped because they are shorter than `horizon + 1` samples.
     pub skipped_short: usize,
@@ -347,7 +415,7 @@ struct Prepared {
     z: Vec<f32>,
     y: Vec<f32>,
     cond: [f32; CONDITION_FEATURES],
-    /// `Δt g` per joint.
+    /// `stride · Δt g` per joint.
     step: Vec<f32>,
 }
 
@@ -367,6 +435,18 @@ impl Sampler {
     }
 }
 
+/// Window geometry shared by every batch of a run.
+#[derive(Clone, Copy)]
+struct Windows {
+    /// Rollout steps of this batch.
+    h: usize,
+    /// Samples per step.
+    stride: usize,
+    n: usize,
+    /// Std of the start-state noise (normalised units).
+    noise: f32,
+}
+
 struct Batch {
     z0: Tensor,
     cond: Tensor,
@@ -376,13 +456,26 @@ struct Batch {
     vel_target: Tensor,
 }
 
+/// A standard normal draw (Box–Muller).
+fn gauss(rng: &mut StdRng) -> f32 {
+    let u1: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
+    let u2: f64 = rng.random_range(0.0..1.0);
+    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
+}
+
 fn make_batch(
     data: &[Prepared],
     sampler: &mut Sampler,
+    noise_rng: &mut StdRng,
     b: usize,
-    h: usize,
-    n: usize,
+    w: Windows,
 ) -> Result<Batch, PolicyError> {
+    let Windows {
+        h,
+        stride,
+        n,
+        noise,
+    } = w;
     let c = CONDITION_FEATURES;
     let mut z0 = Vec::with_capacity(b * n);
     let mut cond = Vec::with_capacity(b * c);
@@ -393,15 +486,35 @@ fn make_batch(
     for _ in 0..b {
         let (i, t) = sampler.sample();
         let p = &data[i];
-        z0.extend_from_slice(&p.z[t * n..(t + 1) * n]);
+        // Sample index of window point k (held at the last sample past the end).
+        let at = |k: usize| (t + k * stride).min(p.len - 1);
+        let s0 = at(0);
+        if noise > 0.0 {
+            z0.extend(
+                p.z[s0 * n..(s0 + 1) * n]
+                    .iter()
+                    .map(|&v| v + noise * gauss(noise_rng)),
+            );
+        } else {
+            z0.extend_from_slice(&p.z[s0 * n..(s0 + 1) * n]);
+        }
         cond.extend_from_slice(&p.cond);
         step.extend_from_slice(&p.step);
-        target.extend_from_slice(&p.z[(t + 1) * n..(t + h + 1) * n]);
-        for k in t..t + h {
-            vel_in.extend_from_slice(&p.z[k * n..(k + 1) * n]);
-            vel_in.extend_from_slice(&p.cond);
+        for k in 1..=h {
+            let s = at(k);
+            target.extend_from_slice(&p.z[s * n..(s + 1) * n]);
         }
-        vel_target.extend_from_slice(&p.y[t * n..(t + h) * n]);
+        for k in 0..h {
+            let s = at(k);
+            vel_in.extend_from_slice(&p.z[s * n..(s + 1) * n]);
+            vel_in.extend_from_slice(&p.cond);
+            if at(k + 1) == s {
+                // Holding at the goal: the demonstrated motion is zero.
+                vel_target.extend(std::iter::repeat_n(0.0f32, n));
+            } else {
+                vel_target.extend_from_slice(&p.y[s * n..(s + 1) * n]);
+            }
+        }
     }
     let dev = &Device::Cpu;
     Ok(Batch {
@@ -444,7 +557,8 @@ fn scalar(t: &Tensor) -> Result<f64, PolicyError> {
 fn prepare(
     data: &[(&JointTrajectory, Condition)],
     norm: &Normalizer,
-    h: usize,
+    min_len: usize,
+    stride: usize,
 ) -> (Vec<Prepared>, usize) {
     let n = norm.dim();
     let mut out = Vec::new();
@@ -453,7 +567,7 @@ fn prepare(
     let mut yq = vec![0.0; n];
     for (t, s) in data {
         let len = t.len();
-        if len < h + 1 {
+        if len < min_len {
             skipped += 1;
             continue;
         }
@@ -472,7 +586,9 @@ fn prepare(
             z,
             y,
             cond: c.map(|v| v as f32),
-            step: (0..n).map(|j| (t.dt * norm.gain(j)) as f32).collect(),
+            step: (0..n)
+                .map(|j| (stride as f64 * t.dt * norm.gain(j)) as f32)
+                .collect(),
         });
     }
     (out, skipped)
@@ -526,19 +642,28 @@ pub fn train(
     config.validate()?;
     check_data(data)?;
     let h = config.horizon;
+    let stride = config.stride;
+    // A window spans `h · stride` samples; padded windows only need two samples.
+    let span = h * stride;
+    let min_len = if config.pad_end { 2 } else { span + 1 };
     let normalizer = Normalizer::fit(data.iter().map(|(t, _)| *t))?;
     let n = normalizer.dim();
-    let (prepared, skipped_short) = prepare(data, &normalizer, h);
+    let (prepared, skipped_short) = prepare(data, &normalizer, min_len, stride);
     let mut cum = vec![0usize];
     for p in &prepared {
-        cum.push(cum.last().copied().unwrap_or(0) + (p.len - h));
+        let starts = if config.pad_end {
+            p.len - 1
+        } else {
+            p.len - span
+        };
+        cum.push(cum.last().copied().unwrap_or(0) + starts);
     }
     let windows = *cum.last().unwrap_or(&0);
     if windows == 0 {
         return Err(PolicyError::Data {
             message: format!(
-                "no trajectory has the {} samples a horizon of {h} needs",
-                h + 1
+                "no trajectory has the {} samples a horizon of {h} (stride {stride}) needs",
+                span + 1
             ),
         });
     }
@@ -557,13 +682,21 @@ pub fn train(
         cum,
         rng: StdRng::seed_from_u64(config.seed ^ 0xD1B5_4A32_D192_ED03),
     };
+    let mut noise_rng = StdRng::seed_from_u64(config.seed ^ 0x94D0_49BB_1331_11EB);
     let w_v = config.velocity_weight;
+    // The loss reported before and after training: full horizon, no start noise.
+    let full = Windows {
+        h,
+        stride,
+        n,
+        noise: 0.0,
+    };
     let eval = make_batch(
         &prepared,
         &mut eval_sampler,
+        &mut noise_rng,
         config.batch_size.max(256),
-        h,
-        n,
+        full,
     )?;
     let initial_loss = scalar(&batch_loss(&mlp, &eval, h, w_v)?)?;
 
@@ -574,7 +707,7 @@ pub fn train(
             beta1: 0.9,
             beta2: 0.999,
             eps: 1e-8,
-            weight_decay: 0.0,
+            weight_decay: config.weight_decay,
         },
     )?;
     let start = Instant::now();
@@ -584,8 +717,20 @@ pub fn train(
                 .lr_schedule
                 .at(config.learning_rate, k, config.iterations),
         );
-        let batch = make_batch(&prepared, &mut sampler, config.batch_size, h, n)?;
-        let loss = batch_loss(&mlp, &batch, h, w_v)?;
+        let hk = config.horizon_at(k);
+        let w = Windows {
+            h: hk,
+            noise: config.start_noise as f32,
+            ..full
+        };
+        let batch = make_batch(
+            &prepared,
+            &mut sampler,
+            &mut noise_rng,
+            config.batch_size,
+            w,
+        )?;
+        let loss = batch_loss(&mlp, &batch, hk, w_v)?;
         let l = scalar(&loss)?;
         if !l.is_finite() {
             return Err(PolicyError::Diverged {

@@ -409,6 +409,108 @@ fn training_rejects_bad_setup() {
 }
 
 #[test]
+fn strided_noisy_curriculum_training_learns() {
+    // Strided windows padded at the end, start-state noise and a horizon curriculum: the
+    // rollout-only loss (no velocity term) still drops and the rollouts beat an untrained net.
+    let config = TrainConfig {
+        stride: 4,
+        pad_end: true,
+        horizon_start: 2,
+        curriculum_fraction: 0.5,
+        start_noise: 0.02,
+        velocity_weight: 0.0,
+        weight_decay: 1e-6,
+        ..small_config(120, 7)
+    };
+    assert_eq!(config.horizon_at(0), 2);
+    assert_eq!(config.horizon_at(60), 6);
+    assert_eq!(config.horizon_at(119), 6);
+    let (policy, report, _) = run(&config);
+    eprintln!("{report:?}");
+    // Every sample but the last starts a window when windows are padded.
+    assert_eq!(report.windows, 24 * (LEN - 1));
+    assert!(
+        report.final_loss < 0.5 * report.initial_loss,
+        "loss {} → {}",
+        report.initial_loss,
+        report.final_loss
+    );
+    let (untrained, _, _) = run(&TrainConfig {
+        iterations: 0,
+        ..config.clone()
+    });
+    let data = dataset();
+    let (mut e_trained, mut e_untrained) = (0.0, 0.0);
+    for (t, s) in &data {
+        e_trained += rollout_rmse(&policy, t, s);
+        e_untrained += rollout_rmse(&untrained, t, s);
+    }
+    assert!(
+        3.0 * e_trained < e_untrained,
+        "trained {e_trained} vs untrained {e_untrained}"
+    );
+    // Same configuration, same weights (the noise has its own seeded stream).
+    let (again, _, _) = run(&config);
+    assert_eq!(policy.mlp(), again.mlp());
+    // Without padding, a window of horizon × stride samples must fit in every demo.
+    let mut c = config.clone();
+    c.pad_end = false;
+    c.stride = LEN;
+    let data = dataset();
+    let pairs: Vec<(&JointTrajectory, Condition)> = data.iter().map(|(t, s)| (t, *s)).collect();
+    let e = train(&pairs, &c, meta(), |_, _| {}).unwrap_err();
+    assert!(matches!(e, PolicyError::Data { .. }), "{e}");
+}
+
+#[test]
+fn train_config_rejects_bad_recipe_fields() {
+    let base = small_config(1, 0);
+    for (field, c) in [
+        (
+            "stride",
+            TrainConfig {
+                stride: 0,
+                ..base.clone()
+            },
+        ),
+        (
+            "horizon_start",
+            TrainConfig {
+                horizon_start: 7,
+                ..base.clone()
+            },
+        ),
+        (
+            "curriculum_fraction",
+            TrainConfig {
+                curriculum_fraction: 1.5,
+                ..base.clone()
+            },
+        ),
+        (
+            "start_noise",
+            TrainConfig {
+                start_noise: -0.1,
+                ..base.clone()
+            },
+        ),
+        (
+            "weight_decay",
+            TrainConfig {
+                weight_decay: f64::NAN,
+                ..base.clone()
+            },
+        ),
+    ] {
+        let e = c.validate().unwrap_err();
+        assert!(
+            matches!(&e, PolicyError::Config { field: f, .. } if f == field),
+            "{field}: {e}"
+        );
+    }
+}
+
+#[test]
 fn train_config_toml_defaults_and_unknown_fields() {
     let c: TrainConfig = toml::from_str("horizon = 12\nseed = 3").unwrap();
     assert_eq!(c.horizon, 12);

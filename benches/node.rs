@@ -1,0 +1,226 @@
+//! The node's control tick and its joint_states → command latency over loopback DDS.
+//!
+//! - `tick/*` (criterion): `NodeCore::load_inputs` + `NodeCore::tick` (FK + Jacobian, MLP
+//!   forward, safety QP, command) along a path of joint states, for the planar dual arm with
+//!   the shipped policy and RB-Y1's 14 arm joints with a synthetic policy of the same shape.
+//!   A second pass times 20 000 single ticks and prints median and p99.
+//! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
+//!   second DDS participant publishing JointState and timing the arrival of the command the
+//!   node computes from it (median, p99 over 2000 round trips). DDS: run inside
+//!   `../shared/tools/netns-run`.
+//!
+//! Run: `../shared/tools/netns-run cargo bench --bench node`.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use crossym::config::Config;
+use crossym::policy::Policy;
+use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
+use crossym::ros::{msg, NodeConfig, NodeCore, Trigger};
+use crossym::safety::SafetySettings;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The node core and a path of joint states for one robot.
+fn setup(robot: &str) -> Option<(NodeCore, Vec<Vec<f64>>)> {
+    let (cfg_name, synthetic) = match robot {
+        "planar" => ("letters.toml", false),
+        _ => ("rby1.toml", true),
+    };
+    if synthetic && !root().join("../shared/robots/rby1a/model.urdf").exists() {
+        eprintln!("SKIP {robot}: ../shared/robots/rby1a/model.urdf absent");
+        return None;
+    }
+    let cfg = Config::from_file(root().join("config").join(cfg_name)).unwrap();
+    let robot = cfg.load_robot().unwrap();
+    let kin = robot.kinematics;
+    let n = kin.dof();
+    let policy = if synthetic {
+        Policy::synthetic(n, kin.joint_names().to_vec(), &[128, 128, 128], 1)
+    } else {
+        Policy::load(root().join("data/policies/pi_mrt_planar.safetensors")).unwrap()
+    };
+    let q0 = cfg
+        .check
+        .reference_q
+        .clone()
+        .unwrap_or_else(|| vec![0.0; n]);
+    // A smooth closed path around the reference posture (1000 states, 10 ms apart).
+    let path = (0..1000)
+        .map(|k| {
+            (0..n)
+                .map(|j| q0[j] + 0.1 * (0.0063 * k as f64 + j as f64).sin())
+                .collect()
+        })
+        .collect();
+    let node_cfg = cfg.node.clone().unwrap_or_default();
+    let safety = SafetySettings {
+        default_acceleration: 10.0,
+        ..node_cfg.safety
+    };
+    let core = NodeCore::new(kin, policy, safety, NodeConfig { ..node_cfg }).unwrap();
+    Some((core, path))
+}
+
+fn bench_tick(c: &mut Criterion) {
+    let mut g = c.benchmark_group("tick");
+    g.measurement_time(Duration::from_secs(4))
+        .warm_up_time(Duration::from_secs(1));
+    for robot in ["planar", "rby1"] {
+        let Some((mut core, path)) = setup(robot) else {
+            continue;
+        };
+        let mut gate = core.input_gate();
+        let mut cmd = core.command();
+        let mut m = msg::JointState {
+            name: core.joint_names().to_vec(),
+            position: path[0].clone(),
+            ..Default::default()
+        };
+        let mut k = 0usize;
+        let mut step = |core: &mut NodeCore| {
+            m.position.copy_from_slice(&path[k % path.len()]);
+            let now = k as f64 * 0.01;
+            gate.on_joint_state(&m, now).unwrap();
+            core.load_inputs(gate.inputs());
+            let r = core.tick(now, &mut cmd);
+            k += 1;
+            black_box(r);
+        };
+        let label = format!("{robot}_{}dof", core.joint_names().len());
+        g.bench_function(&label, |b| b.iter(|| step(&mut core)));
+        // Percentiles of single ticks.
+        let mut t: Vec<f64> = (0..20_000)
+            .map(|_| {
+                let t0 = Instant::now();
+                step(&mut core);
+                t0.elapsed().as_secs_f64() * 1e6
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        println!(
+            "tick/{label}: median {:.2} us, p99 {:.2} us, max {:.2} us over {} ticks",
+            t[t.len() / 2],
+            t[t.len() * 99 / 100],
+            t[t.len() - 1],
+            t.len()
+        );
+    }
+    g.finish();
+}
+
+/// joint_states → command latency through the real node over loopback DDS.
+fn bench_latency(_c: &mut Criterion) {
+    let Some((core, path)) = setup("planar") else {
+        return;
+    };
+    let _ = core; // the node builds its own core below with trigger = joint_states
+    let cfg = Config::from_file(root().join("config/letters.toml")).unwrap();
+    let robot = cfg.load_robot().unwrap();
+    let mut node_cfg = cfg.node.clone().unwrap();
+    node_cfg.trigger = Trigger::JointStates;
+    node_cfg.check_stamps = false;
+    node_cfg.name = "crossym_latency".into();
+    let policy = Policy::load(root().join("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let names = robot.kinematics.joint_names().to_vec();
+    let core = NodeCore::new(robot.kinematics, policy, node_cfg.safety, node_cfg.clone()).unwrap();
+    let settings = DdsSettings {
+        domain_id: 77,
+        range: DiscoveryRange::Localhost,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let stop2 = stop.clone();
+    let node = std::thread::spawn(move || crossym::ros::node::run(core, settings, Some(stop2)));
+
+    let ctx = match settings.context() {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("SKIP latency: {e}");
+            stop.store(true, Ordering::Release);
+            let _ = node.join();
+            return;
+        }
+    };
+    let mut peer = ctx
+        .new_node(
+            dds::node_name("/", "latency_peer").unwrap(),
+            ros2_client::NodeOptions::new().enable_rosout(false),
+        )
+        .unwrap();
+    let js_pub =
+        dds::publisher::<msg::JointState>(&mut peer, "/joint_states", dds::qos_reliable(10))
+            .unwrap();
+    let cmd_sub = dds::subscription::<msg::Float64MultiArray>(
+        &mut peer,
+        &node_cfg.topics.command,
+        dds::qos_reliable(10),
+    )
+    .unwrap();
+    let send = |k: usize| {
+        js_pub
+            .publish(msg::JointState {
+                name: names.clone(),
+                position: path[k % path.len()].clone(),
+                ..Default::default()
+            })
+            .unwrap();
+    };
+    // Discovery and warm-up: until commands flow.
+    let t_start = Instant::now();
+    let mut warm = 0;
+    while warm < 50 {
+        assert!(
+            t_start.elapsed() < Duration::from_secs(30),
+            "no commands from the node within 30 s (run inside netns-run?)"
+        );
+        send(warm);
+        std::thread::sleep(Duration::from_millis(10));
+        while let Ok(Some(_)) = cmd_sub.take() {
+            warm += 1;
+        }
+    }
+    let mut lat = Vec::with_capacity(2000);
+    for k in 0..2000 {
+        while let Ok(Some(_)) = cmd_sub.take() {}
+        let t0 = Instant::now();
+        send(k);
+        // Busy-poll for the command computed from this state (the node ticks on arrival;
+        // its period timer is 10 ms, so a reply within 5 ms is the triggered tick).
+        loop {
+            if let Ok(Some(_)) = cmd_sub.take() {
+                lat.push(t0.elapsed().as_secs_f64() * 1e6);
+                break;
+            }
+            if t0.elapsed() > Duration::from_millis(50) {
+                break;
+            }
+            std::hint::spin_loop();
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    stop.store(true, Ordering::Release);
+    let _ = node.join();
+    lat.sort_by(f64::total_cmp);
+    if lat.is_empty() {
+        println!("latency: no replies");
+        return;
+    }
+    println!(
+        "latency/joint_states->command (loopback DDS, trigger joint_states): median {:.1} us, p99 {:.1} us, max {:.1} us over {} round trips ({} lost)",
+        lat[lat.len() / 2],
+        lat[lat.len() * 99 / 100],
+        lat[lat.len() - 1],
+        lat.len(),
+        2000 - lat.len()
+    );
+}
+
+criterion_group!(benches, bench_tick, bench_latency);
+criterion_main!(benches);
