@@ -137,7 +137,8 @@ fn bench_latency(_c: &mut Criterion) {
     };
     let stop = Arc::new(AtomicBool::new(false));
     let stop2 = stop.clone();
-    let node = std::thread::spawn(move || crossym::ros::node::run(core, settings, Some(stop2)));
+    let node =
+        std::thread::spawn(move || crossym::ros::node::run(core, settings, Some(stop2), None));
 
     let ctx = match settings.context() {
         Ok(c) => c,

@@ -76,6 +76,29 @@ enum Command {
         config: PathBuf,
         #[command(flatten)]
         overrides: ros::NodeOverrides,
+        /// Record joint states, conditions, commands and status to this new rosbag2 (MCAP)
+        /// directory.
+        #[arg(long)]
+        record: Option<PathBuf>,
+    },
+    /// Inspect a rosbag2 MCAP bag.
+    Bag {
+        #[command(subcommand)]
+        what: BagCommand,
+    },
+    /// Replay a recorded bag offline through the node's logic and compare the commands.
+    /// Exits 1 when a command deviates beyond the tolerance.
+    Replay {
+        /// Bag directory or .mcap file.
+        bag: PathBuf,
+        /// Config file (TOML) the node ran with.
+        #[arg(long, short)]
+        config: PathBuf,
+        #[command(flatten)]
+        overrides: ros::NodeOverrides,
+        /// Largest accepted |recorded − recomputed| (rad/s or rad).
+        #[arg(long, default_value_t = 1e-9)]
+        tolerance: f64,
     },
     /// Run the mock hardware: integrate commands, publish /joint_states, log limit violations.
     /// Exits 1 when it saw a limit violation.
@@ -103,13 +126,35 @@ enum Command {
     },
 }
 
+#[derive(Debug, Subcommand)]
+enum BagCommand {
+    /// Topics, types, counts and duration (like `ros2 bag info`).
+    Info {
+        /// Bag directory or .mcap file.
+        bag: PathBuf,
+    },
+}
+
 /// Runs one subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Info { config, q } => info(&config, q),
         Command::Check { config } => check(&config),
         Command::Demo(a) => demo::demo(&a),
-        Command::Node { config, overrides } => ros::node(&config, &overrides),
+        Command::Node {
+            config,
+            overrides,
+            record,
+        } => ros::node(&config, &overrides, record.as_deref()),
+        Command::Bag {
+            what: BagCommand::Info { bag },
+        } => ros::bag_info(&bag),
+        Command::Replay {
+            bag,
+            config,
+            overrides,
+            tolerance,
+        } => ros::replay(&bag, &config, &overrides, tolerance),
         Command::MockHw {
             config,
             summary,

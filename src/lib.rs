@@ -21,6 +21,7 @@
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod bag;
 pub mod config;
 pub mod data;
 pub mod eval;

@@ -264,7 +264,13 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     let mut hw_cmd = child("mock-hw");
     hw_cmd.arg("--summary").arg(&summary_path);
     let mut hw = Proc::spawn("mock-hw", hw_cmd, &a.out.join("mock_hw.log"))?;
-    let mut node = Proc::spawn("node", child("node"), &a.out.join("node.log"))?;
+    let bag_dir = a.out.join("bag");
+    if bag_dir.exists() {
+        std::fs::remove_dir_all(&bag_dir).with_context(|| format!("{}", bag_dir.display()))?;
+    }
+    let mut node_cmd = child("node");
+    node_cmd.arg("--record").arg(&bag_dir);
+    let mut node = Proc::spawn("node", node_cmd, &a.out.join("node.log"))?;
     println!(
         "  started mock-hw and node (domain {}, localhost only); logs in {}",
         settings.domain_id,
@@ -362,6 +368,25 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     if node_rc != 0 {
         failures.push(format!("node exited with {node_rc}"));
     }
+    // The recorded bag replays bit for bit through the node's logic.
+    let replay_line = match replay_bag(&bag_dir, &a.config) {
+        Ok((commands, dev)) => {
+            if dev > 1e-9 {
+                failures.push(format!(
+                    "replay of {} deviates by {dev:e} from the recorded commands",
+                    bag_dir.display()
+                ));
+            }
+            format!(
+                "\nBag `{}`: offline replay recomputed {commands} commands, max deviation {dev:.1e}.\n",
+                bag_dir.display()
+            )
+        }
+        Err(e) => {
+            failures.push(format!("replay of {}: {e:#}", bag_dir.display()));
+            String::new()
+        }
+    };
     if hw_rc != 0 {
         failures.push(format!("mock-hw exited with {hw_rc}"));
     }
@@ -377,6 +402,7 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
             .map(|v| (v * 1000.0).round() / 1000.0)
             .collect::<Vec<_>>()
     ));
+    md.push_str(&replay_line);
     md.push_str("\nFigure `demo.png`: one panel per step, in table order; grey = nominal letters (transformed demonstration), colour = executed end-effector paths (blue left arm, red right arm).\n");
     let panels: Vec<PathPanel> = results
         .iter()
@@ -407,4 +433,27 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
         }
         Ok(ExitCode::from(1))
     }
+}
+
+/// Replays the recorded bag; (commands compared, max deviation).
+fn replay_bag(dir: &Path, config: &Path) -> anyhow::Result<(usize, f64)> {
+    use crossym::bag::replay::{replay, ReplayTopics};
+    use crossym::ros::dds::expand_topic;
+    let bag = crossym::bag::Bag::open(dir)?;
+    let (_, mut core) = super::ros::build_core(config, &super::ros::NodeOverrides::default())?;
+    let n = core.config().clone();
+    let name = |t: &str| expand_topic(t, &n.namespace, &n.name);
+    let topics = ReplayTopics {
+        joint_states: name(&n.topics.joint_states),
+        condition: name(&n.topics.symmetry_condition),
+        command: name(&n.topics.command),
+    };
+    let r = replay(&bag, &mut core, &topics)?;
+    anyhow::ensure!(
+        r.unmatched == 0 && r.commands > 0,
+        "{} commands without their input snapshot, {} compared",
+        r.unmatched,
+        r.commands
+    );
+    Ok((r.commands, r.max()))
 }

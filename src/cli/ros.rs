@@ -107,10 +107,18 @@ pub fn build_core(path: &Path, o: &NodeOverrides) -> anyhow::Result<(Config, Nod
 }
 
 /// `crossym node`.
-pub fn node(path: &Path, o: &NodeOverrides) -> anyhow::Result<ExitCode> {
+pub fn node(path: &Path, o: &NodeOverrides, record: Option<&Path>) -> anyhow::Result<ExitCode> {
     let (_, core) = build_core(path, o)?;
     let settings = DdsSettings::from_env()?;
-    let stats = crossym::ros::node::run(core, settings, None)?;
+    let stats = crossym::ros::node::run(core, settings, None, record)?;
+    if let Some(dir) = record {
+        eprintln!(
+            "crossym node: recorded {} messages to {} ({} dropped)",
+            stats.bag_messages,
+            dir.display(),
+            stats.bag_dropped
+        );
+    }
     eprintln!(
         "crossym node: {} ticks, {} commands, {} publish errors; tick median {:.1} us, p99 {:.1} us, max {:.1} us",
         stats.ticks, stats.commands, stats.publish_errors, stats.median_us, stats.p99_us, stats.max_us
@@ -160,6 +168,56 @@ pub fn mock_hw(
     let settings = DdsSettings::from_env()?;
     let s = crossym::sim::process::run(hw, &hw_cfg, &topic, mode, settings, summary)?;
     Ok(if s.violation_count == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// `crossym bag info`.
+pub fn bag_info(path: &Path) -> anyhow::Result<ExitCode> {
+    let bag = crossym::bag::Bag::open(path)?;
+    print!("{}", bag.info());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `crossym replay`: recorded inputs through the node's logic, commands compared.
+pub fn replay(
+    bag_path: &Path,
+    config: &Path,
+    o: &NodeOverrides,
+    tolerance: f64,
+) -> anyhow::Result<ExitCode> {
+    use crossym::bag::replay::{replay, ReplayTopics};
+    use crossym::ros::dds::expand_topic;
+    let bag = crossym::bag::Bag::open(bag_path)?;
+    let (_, mut core) = build_core(config, o)?;
+    let n = core.config().clone();
+    let name = |t: &str| expand_topic(t, &n.namespace, &n.name);
+    let topics = ReplayTopics {
+        joint_states: name(&n.topics.joint_states),
+        condition: name(&n.topics.symmetry_condition),
+        command: name(&n.topics.command),
+    };
+    let r = replay(&bag, &mut core, &topics)?;
+    println!(
+        "replayed {}: {} inputs, {} commands recomputed, {} without their input snapshot",
+        bag_path.display(),
+        r.inputs,
+        r.commands,
+        r.unmatched
+    );
+    println!("max |recorded - recomputed| per joint:");
+    for (name, d) in core.joint_names().iter().zip(&r.max_abs_deviation) {
+        println!("  {name:<24} {d:.3e}");
+    }
+    let ok = r.commands > 0 && r.unmatched == 0 && r.max() <= tolerance;
+    println!(
+        "replay: {} (max deviation {:.3e}, tolerance {tolerance:e})",
+        if ok { "OK" } else { "FAILED" },
+        r.max()
+    );
+    Ok(if ok {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)

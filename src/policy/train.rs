@@ -3,23 +3,32 @@
 //!
 //! Each iteration samples `B` windows `(τ, t)` uniformly over every valid start `t` of
 //! every training trajectory `τ` (so long demonstrations weigh more), then, in normalised
-//! coordinates `z` (see [`super::features`]):
+//! coordinates `z` (see [`super::features`]), with stride `s` (samples per step) and
+//! `z_i` held at the last sample past a trajectory's end when [`TrainConfig::pad_end`]:
 //!
-//! - rolls the network out for `H` Euler steps from the demonstrated `z_t`:
-//!   `ẑ_{t+k+1} = ẑ_{t+k} + Δt g ⊙ π(ẑ_{t+k}, s)`, `ẑ_t = z_t`;
-//! - `L = mean_{b,k,j} (ẑ_{t+k} − z_{t+k})²  +  w_v · mean_{b,k,j} (π(z_{t+k}, s) − y_{t+k})²`
+//! - rolls the network out for `H` Euler steps of `s Δt` from the demonstrated `z_t`,
+//!   optionally perturbed by Gaussian noise `ε ~ N(0, σ_n² I)` (DART-like, so the rollout
+//!   must return to the demonstration): `ẑ_{k+1} = ẑ_k + s Δt g ⊙ π(ẑ_k, s)`,
+//!   `ẑ_0 = z_t + ε`;
+//! - `L = mean_{b,k,j} (ẑ_k − z_{t+ks})²  +  w_v · mean_{b,k,j} (π(z_{t+ks}, s) − y_{t+ks})²`
 //!   for `k = 1..H` (positions) and `k = 0..H−1` (velocities, `y = q̇ ⊘ v`);
-//! - takes one Adam step (AdamW with zero weight decay) with the scheduled learning rate.
+//! - takes one AdamW step with the scheduled learning rate.
 //!
-//! Scale: the position residuals are `O(H Δt g)` times the velocity residuals, so with the
-//! default `w_v = 1` the velocity term dominates early training and the rollout term
-//! corrects the accumulated drift; lower `w_v` to emphasise the rollout.
+//! `H` may grow linearly from [`TrainConfig::horizon_start`] (a curriculum).
+//!
+//! Scale: the position residuals are `O(H s Δt g)` times the velocity residuals (with
+//! `g ≈ 0.1 /s` on the letter task, ~1e-2 for `H s = 100` samples), so any `w_v` of order 1
+//! makes the velocity term dominate and training becomes plain behaviour cloning, whose
+//! rollouts compound their errors. The letter task therefore trains CONDOR's way, on the
+//! rollout term alone (`w_v = 0`), over windows of one second (`s = 10`, `H = 10`): see the
+//! `[train]` section of `config/letters.toml` and README "Measured".
 //!
 //! Training runs in `f32` on the CPU. Everything random is seeded from
 //! [`TrainConfig::seed`]: the weights are drawn from a seeded `StdRng` (Glorot uniform,
-//! zero biases) instead of candle's own initialisers, the window sampler uses a second
-//! stream, so a run is reproducible bit for bit from the configuration and the data
-//! (candle's CPU matmul partitions outputs across threads, never a reduction).
+//! zero biases) instead of candle's own initialisers, the window sampler and the start
+//! noise use two more streams, so a run is reproducible bit for bit from the
+//! configuration and the data (candle's CPU matmul partitions outputs across threads,
+//! never a reduction).
 
 use std::time::Instant;
 

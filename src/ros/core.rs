@@ -451,6 +451,9 @@ impl StatusSnapshot {
     }
 }
 
+/// Bit of a recorded command's MCAP `sequence` marking the final shutdown command.
+pub const SHUTDOWN_SEQUENCE_BIT: u32 = 1 << 31;
+
 /// Latest validated inputs, handed from the DDS I/O side to the control tick.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Inputs {
@@ -472,6 +475,8 @@ pub struct Inputs {
     pub rejected_conditions: u32,
     /// Accepted joint_states messages since start (count).
     pub joint_state_seq: u64,
+    /// Accepted symmetry_condition messages since start (count).
+    pub condition_seq: u64,
 }
 
 impl Inputs {
@@ -486,7 +491,15 @@ impl Inputs {
             rejected_joint_states: 0,
             rejected_conditions: 0,
             joint_state_seq: 0,
+            condition_seq: 0,
         }
+    }
+
+    /// The MCAP `sequence` recorded with a command computed from these inputs:
+    /// `(joint_state_seq mod 2¹⁹) · 2¹² + (condition_seq mod 2¹²)`; bit 31 is left clear
+    /// (it marks the shutdown command, [`SHUTDOWN_SEQUENCE_BIT`]). See [`crate::bag`].
+    pub fn command_sequence(&self) -> u32 {
+        (((self.joint_state_seq & 0x7_FFFF) << 12) | (self.condition_seq & 0xFFF)) as u32
     }
 
     /// Copies `src` into `self` without allocating (same joint count).
@@ -500,6 +513,7 @@ impl Inputs {
         self.rejected_joint_states = src.rejected_joint_states;
         self.rejected_conditions = src.rejected_conditions;
         self.joint_state_seq = src.joint_state_seq;
+        self.condition_seq = src.condition_seq;
     }
 }
 
@@ -609,6 +623,7 @@ impl InputGate {
             reflection: m.reflection,
         };
         i.condition_rejected = false;
+        i.condition_seq = i.condition_seq.wrapping_add(1);
         Ok(())
     }
 }

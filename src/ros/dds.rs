@@ -236,6 +236,14 @@ fn node_base_name(node: &ros2_client::Node) -> String {
     full.rsplit('/').next().unwrap_or_default().to_string()
 }
 
+/// The current ROS (wall-clock) time (ns since the Unix epoch).
+pub fn wall_time_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
 /// The current ROS (wall-clock) time (s since the Unix epoch).
 pub fn wall_time_s() -> f64 {
     std::time::SystemTime::now()

@@ -14,6 +14,7 @@
 //! - On SIGINT/SIGTERM the control thread sends one final zero-velocity / hold command and
 //!   a `SHUTDOWN` status, lets reliable delivery drain, and the process exits 0.
 
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::{self, Thread};
@@ -26,6 +27,7 @@ use ros2_client::{NodeOptions, ParameterValue, RosoutRaw};
 use super::core::{Command, Inputs, NodeCore, OutputMode, Trigger};
 use super::dds::{self, DdsError, DdsSettings};
 use super::msg;
+use crate::bag::{BagError, BagWriter};
 
 /// Errors that stop the node process.
 #[derive(Debug, thiserror::Error)]
@@ -57,6 +59,10 @@ pub struct TickStats {
     pub p99_us: f64,
     /// Maximum tick duration (µs).
     pub max_us: f64,
+    /// Messages written to the bag (count).
+    pub bag_messages: u64,
+    /// Messages dropped because the bag writer fell behind (count).
+    pub bag_dropped: u64,
 }
 
 /// Fixed-size histogram of tick durations, 1 µs bins up to 20 ms (no allocation per sample).
@@ -108,8 +114,15 @@ pub fn run(
     core: NodeCore,
     settings: DdsSettings,
     stop: Option<Arc<AtomicBool>>,
+    record: Option<&Path>,
 ) -> Result<TickStats, NodeRunError> {
     let cfg = core.config().clone();
+    let recorder = match record {
+        Some(dir) => Some(start_recorder(dir, &cfg)?),
+        None => None,
+    };
+    let rec_io = recorder.as_ref().map(|r| r.0.clone());
+    let rec_ctl = recorder.as_ref().map(|r| r.0.clone());
     let ctx = settings.context()?;
     let mut params: Vec<(&str, ParameterValue)> = vec![
         ("period_s", ParameterValue::Double(cfg.period_s)),
@@ -236,7 +249,17 @@ pub fn run(
     let status_names = names.clone();
     let control = thread::Builder::new()
         .name("crossym-control".into())
-        .spawn(move || control_loop(core, output, out, status_pub, stop_ctl, status_names))
+        .spawn(move || {
+            control_loop(
+                core,
+                output,
+                out,
+                status_pub,
+                stop_ctl,
+                status_names,
+                rec_ctl,
+            )
+        })
         .map_err(|e| NodeRunError::Runtime {
             message: format!("control thread: {e}"),
         })?;
@@ -270,11 +293,15 @@ pub fn run(
             tokio::select! {
                 m = js_stream.next() => match m {
                     Some(Ok((m, _))) => {
-                        if let Err(r) = gate.on_joint_state(&m, dds::wall_time_s()) {
+                        let now_ns = dds::wall_time_ns();
+                        if let Err(r) = gate.on_joint_state(&m, now_ns as f64 * 1e-9) {
                             log_limited(0, LogLevel::Warn, &format!("rejected joint_states: {}", r.explain(&names)));
                         }
                         input.input_buffer_mut().copy_from(gate.inputs());
                         input.publish();
+                        if let Some(r) = &rec_io {
+                            r.send(RecordItem::JointState(m, now_ns, gate.inputs().joint_state_seq as u32));
+                        }
                         if trigger == Trigger::JointStates {
                             control_thread.unpark();
                         }
@@ -292,6 +319,9 @@ pub fn run(
                         }
                         input.input_buffer_mut().copy_from(gate.inputs());
                         input.publish();
+                        if let Some(r) = &rec_io {
+                            r.send(RecordItem::Condition(m, dds::wall_time_ns(), gate.inputs().condition_seq as u32));
+                        }
                     }
                     Some(Err(e)) => log_limited(2, LogLevel::Warn, &format!("symmetry_condition not decodable: {e:?}")),
                     None => break,
@@ -308,9 +338,22 @@ pub fn run(
     })?;
     stop.store(true, Ordering::Release);
     control_thread.unpark();
-    let stats = control.join().map_err(|_| NodeRunError::Runtime {
+    let mut stats = control.join().map_err(|_| NodeRunError::Runtime {
         message: "control thread panicked".into(),
     })?;
+    drop(rec_io);
+    if let Some((r, handle)) = recorder {
+        stats.bag_dropped = r.dropped.load(Ordering::Relaxed);
+        drop(r);
+        stats.bag_messages = handle
+            .join()
+            .map_err(|_| NodeRunError::Runtime {
+                message: "bag thread panicked".into(),
+            })?
+            .map_err(|e| NodeRunError::Runtime {
+                message: format!("recording: {e}"),
+            })?;
+    }
     logger.rosout_raw(
         ros2_client::builtin_interfaces::Time::now(),
         LogLevel::Info,
@@ -328,6 +371,99 @@ pub fn run(
     Ok(stats)
 }
 
+/// A message for the bag recorder (sent off the tick over a bounded channel).
+enum RecordItem {
+    JointState(msg::JointState, u64, u32),
+    Condition(msg::SymmetryCondition, u64, u32),
+    Array(msg::Float64MultiArray, u64, u32),
+    Trajectory(msg::JointTrajectory, u64, u32),
+    Status(msg::Status, u64),
+}
+
+/// The sending side of the recorder; `send` never blocks (drops and counts when full).
+#[derive(Clone)]
+struct Recorder {
+    tx: std::sync::mpsc::SyncSender<RecordItem>,
+    dropped: Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl Recorder {
+    fn send(&self, item: RecordItem) {
+        if self.tx.try_send(item).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Opens the bag and starts the writer thread; returns the sender and the thread handle.
+fn start_recorder(
+    dir: &Path,
+    cfg: &super::NodeConfig,
+) -> Result<(Recorder, thread::JoinHandle<Result<u64, BagError>>), NodeRunError> {
+    use crate::bag::Qos;
+    let mut w = BagWriter::create(dir).map_err(|e| NodeRunError::Runtime {
+        message: format!("recording: {e}"),
+    })?;
+    let name = |t: &str| dds::expand_topic(t, &cfg.namespace, &cfg.name);
+    let topics = (|| -> Result<_, BagError> {
+        let js =
+            w.add_topic::<msg::JointState>(&name(&cfg.topics.joint_states), Qos::best_effort(5))?;
+        let cond = w.add_topic::<msg::SymmetryCondition>(
+            &name(&cfg.topics.symmetry_condition),
+            Qos::reliable(10),
+        )?;
+        let cmd = match cfg.output {
+            OutputMode::Trajectory => {
+                w.add_topic::<msg::JointTrajectory>(&name(&cfg.topics.command), Qos::reliable(10))?
+            }
+            _ => w.add_topic::<msg::Float64MultiArray>(
+                &name(&cfg.topics.command),
+                Qos::reliable(10),
+            )?,
+        };
+        let status = w.add_topic::<msg::Status>(&name(&cfg.topics.status), Qos::reliable(10))?;
+        Ok((js, cond, cmd, status))
+    })()
+    .map_err(|e| NodeRunError::Runtime {
+        message: format!("recording: {e}"),
+    })?;
+    let (tx, rx) = std::sync::mpsc::sync_channel::<RecordItem>(4096);
+    let handle = thread::Builder::new()
+        .name("crossym-bag".into())
+        .spawn(move || {
+            let (js, cond, cmd, status) = topics;
+            let mut first_err: Option<BagError> = None;
+            for item in rx {
+                let r = match item {
+                    RecordItem::JointState(m, t, q) => w.write(js, &m, t, q),
+                    RecordItem::Condition(m, t, q) => w.write(cond, &m, t, q),
+                    RecordItem::Array(m, t, q) => w.write(cmd, &m, t, q),
+                    RecordItem::Trajectory(m, t, q) => w.write(cmd, &m, t, q),
+                    RecordItem::Status(m, t) => w.write(status, &m, t, 0),
+                };
+                if let Err(e) = r {
+                    first_err.get_or_insert(e);
+                }
+            }
+            let n = w.message_count();
+            w.finish()?;
+            match first_err {
+                Some(e) => Err(e),
+                None => Ok(n),
+            }
+        })
+        .map_err(|e| NodeRunError::Runtime {
+            message: format!("bag thread: {e}"),
+        })?;
+    Ok((
+        Recorder {
+            tx,
+            dropped: Arc::new(std::sync::atomic::AtomicU64::new(0)),
+        },
+        handle,
+    ))
+}
+
 /// The command writer for the configured output mode.
 enum CommandPublisher {
     Array(ros2_client::Publisher<msg::Float64MultiArray>),
@@ -335,12 +471,28 @@ enum CommandPublisher {
 }
 
 impl CommandPublisher {
-    fn publish(&self, cmd: &Command, names: &[String], dt: f64) -> bool {
+    /// Publishes `cmd` (and hands a copy to the recorder with the tick time and inputs).
+    fn publish(
+        &self,
+        cmd: &Command,
+        names: &[String],
+        dt: f64,
+        rec: Option<(&Recorder, u64, u32)>,
+    ) -> bool {
         match self {
-            CommandPublisher::Array(p) => p.publish(cmd.to_float64_multi_array()).is_ok(),
+            CommandPublisher::Array(p) => {
+                let m = cmd.to_float64_multi_array();
+                if let Some((r, t, q)) = rec {
+                    r.send(RecordItem::Array(m.clone(), t, q));
+                }
+                p.publish(m).is_ok()
+            }
             CommandPublisher::Trajectory(p) => {
                 let mut m = cmd.to_joint_trajectory(names, dt);
                 m.header.stamp = msg::Time::from_secs_f64(dds::wall_time_s());
+                if let Some((r, t, q)) = rec {
+                    r.send(RecordItem::Trajectory(m.clone(), t, q));
+                }
                 p.publish(m).is_ok()
             }
         }
@@ -354,6 +506,7 @@ fn control_loop(
     status_pub: ros2_client::Publisher<msg::Status>,
     stop: Arc<AtomicBool>,
     names: Vec<String>,
+    rec: Option<Recorder>,
 ) -> TickStats {
     let cfg = core.config().clone();
     let period = Duration::from_secs_f64(cfg.period_s);
@@ -384,13 +537,17 @@ fn control_loop(
         }
         last_seq = seq;
         let t0 = Instant::now();
-        let report = core.tick(dds::wall_time_s(), &mut cmd);
+        let now_ns = dds::wall_time_ns();
+        let report = core.tick(now_ns as f64 * 1e-9, &mut cmd);
         let us = t0.elapsed().as_secs_f64() * 1e6;
         core.record_tick_time(us);
         hist.record(us);
         stats.ticks += 1;
         if report.publish {
-            if out.publish(&cmd, &names, cfg.period_s) {
+            let r = rec
+                .as_ref()
+                .map(|r| (r, now_ns, inputs.peek_output_buffer().command_sequence()));
+            if out.publish(&cmd, &names, cfg.period_s, r) {
                 stats.commands += 1;
             } else {
                 stats.publish_errors += 1;
@@ -409,17 +566,25 @@ fn control_loop(
         };
         if t0 >= next_status {
             next_status = t0 + status_period;
-            let stamp = msg::Time::from_secs_f64(dds::wall_time_s());
-            if status_pub
-                .publish(core.status().to_msg(stamp, &names))
-                .is_err()
-            {
+            let stamp_ns = dds::wall_time_ns();
+            let m = core
+                .status()
+                .to_msg(msg::Time::from_secs_f64(stamp_ns as f64 * 1e-9), &names);
+            if let Some(r) = &rec {
+                r.send(RecordItem::Status(m.clone(), stamp_ns));
+            }
+            if status_pub.publish(m).is_err() {
                 stats.publish_errors += 1;
             }
         }
     }
     // Final zero / hold command: ForwardCommandController would repeat the last one forever.
-    if core.shutdown_command(&mut cmd) && out.publish(&cmd, &names, cfg.period_s) {
+    let now_ns = dds::wall_time_ns();
+    let r = rec.as_ref().map(|r| {
+        let q = inputs.peek_output_buffer().command_sequence();
+        (r, now_ns, q | super::core::SHUTDOWN_SEQUENCE_BIT)
+    });
+    if core.shutdown_command(&mut cmd) && out.publish(&cmd, &names, cfg.period_s, r) {
         stats.commands += 1;
     }
     let stamp = msg::Time::from_secs_f64(dds::wall_time_s());

@@ -1,0 +1,82 @@
+//! rosbag2 bags in MCAP: recording, reading and offline replay of the node's traffic.
+//!
+//! Layout (as `ros2 bag record -s mcap` writes it): a bag is a directory holding
+//! `<name>_0.mcap` and `metadata.yaml` (`rosbag2_bagfile_information`, storage `mcap`).
+//! The MCAP file has profile `ros2`; one schema per message type (encoding `ros2msg`, the
+//! `.msg` text with its dependencies, see [`schema`]); one channel per topic (message
+//! encoding `cdr`, metadata `offered_qos_profiles`); messages are CDR with the 4-byte
+//! encapsulation header (`00 01 00 00`, little endian), log and publish times in ns since
+//! the Unix epoch; zstd chunks, message indexes, a summary and statistics.
+//!
+//! crossym also stores, in the MCAP `sequence` field, which inputs produced each
+//! message, so that a run can be replayed exactly ([`replay`]): a joint state carries the
+//! count of accepted joint states after it, a condition the count of accepted conditions,
+//! and a command `(js_seq mod 2¹⁹) · 2¹² + (cond_seq mod 2¹²)` of the inputs its tick used,
+//! with bit 31 set on the final shutdown command.
+
+pub mod cdr;
+pub mod reader;
+pub mod replay;
+pub mod schema;
+pub mod writer;
+
+pub use reader::{Bag, BagInfo, RawMessage, TopicInfo};
+pub use writer::{BagWriter, Qos};
+
+use std::path::PathBuf;
+
+/// Errors reading or writing bags; each names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BagError {
+    /// File-system error.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The MCAP container is malformed (truncated, corrupt chunk, bad magic …).
+    #[error("{path}: not a readable MCAP file: {message}")]
+    Mcap {
+        /// The file.
+        path: PathBuf,
+        /// The mcap crate's description.
+        message: String,
+    },
+    /// The MCAP profile is not `ros2` or a channel is not CDR.
+    #[error("{path}: {message}")]
+    NotRos2 {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A message could not be decoded as its type.
+    #[error("{path}: message {index} on {topic} ({ros_type}): {message}")]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// Topic.
+        topic: String,
+        /// ROS type.
+        ros_type: String,
+        /// Index of the message in the file's log order.
+        index: usize,
+        /// Why.
+        message: String,
+    },
+    /// A topic's type is not one crossym knows.
+    #[error("{path}: topic {topic} has type `{ros_type}`, which crossym cannot {what}")]
+    UnknownType {
+        /// The file.
+        path: PathBuf,
+        /// Topic.
+        topic: String,
+        /// The type.
+        ros_type: String,
+        /// `decode` or `record`.
+        what: &'static str,
+    },
+}

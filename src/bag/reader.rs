@@ -1,0 +1,237 @@
+//! Reading rosbag2 MCAP bags (a bag directory or a single `.mcap` file): checks the
+//! profile and encodings, loads every message in log-time order, decodes CDR.
+
+use std::path::{Path, PathBuf};
+
+use serde::de::DeserializeOwned;
+
+use super::{cdr, BagError};
+
+/// One message as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawMessage {
+    /// Index into [`Bag::topics`].
+    pub topic: usize,
+    /// Log time (ns since the Unix epoch).
+    pub log_ns: u64,
+    /// Publish time (ns since the Unix epoch).
+    pub publish_ns: u64,
+    /// MCAP sequence number.
+    pub sequence: u32,
+    /// CDR payload with encapsulation header.
+    pub data: Vec<u8>,
+}
+
+/// A topic of a bag.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TopicInfo {
+    /// Topic name.
+    pub name: String,
+    /// ROS type (`pkg/msg/Type`).
+    pub ros_type: String,
+    /// Messages (count).
+    pub count: usize,
+    /// `offered_qos_profiles` metadata, if any.
+    pub qos: Option<String>,
+}
+
+/// Summary like `ros2 bag info`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BagInfo {
+    /// Topics.
+    pub topics: Vec<TopicInfo>,
+    /// Messages (count).
+    pub message_count: usize,
+    /// First log time (ns since epoch).
+    pub start_ns: u64,
+    /// Last log time (ns since epoch).
+    pub end_ns: u64,
+}
+
+impl std::fmt::Display for BagInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "Storage id:    mcap")?;
+        writeln!(
+            f,
+            "Duration:      {:.3} s",
+            (self.end_ns - self.start_ns) as f64 * 1e-9
+        )?;
+        writeln!(f, "Start:         {} ns", self.start_ns)?;
+        writeln!(f, "End:           {} ns", self.end_ns)?;
+        writeln!(f, "Messages:      {}", self.message_count)?;
+        writeln!(f, "Topic information:")?;
+        for t in &self.topics {
+            writeln!(
+                f,
+                "  Topic: {} | Type: {} | Count: {} | Serialization Format: cdr",
+                t.name, t.ros_type, t.count
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// A bag loaded in memory.
+#[derive(Debug, Clone)]
+pub struct Bag {
+    /// The `.mcap` file read.
+    pub path: PathBuf,
+    /// Topics in channel order.
+    pub topics: Vec<TopicInfo>,
+    /// All messages, sorted by log time (stable).
+    pub messages: Vec<RawMessage>,
+}
+
+impl Bag {
+    /// Opens a bag directory (its `.mcap` file) or an `.mcap` file.
+    pub fn open(path: &Path) -> Result<Self, BagError> {
+        let file = if path.is_dir() {
+            let rd = std::fs::read_dir(path).map_err(|source| BagError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            let mut files: Vec<PathBuf> = rd
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+                .collect();
+            files.sort();
+            match files.len() {
+                1 => files.remove(0),
+                0 => {
+                    return Err(BagError::NotRos2 {
+                        path: path.to_path_buf(),
+                        message: "the bag directory holds no .mcap file".into(),
+                    })
+                }
+                n => {
+                    return Err(BagError::NotRos2 {
+                        path: path.to_path_buf(),
+                        message: format!("{n} .mcap files: split bags are not supported"),
+                    })
+                }
+            }
+        } else {
+            path.to_path_buf()
+        };
+        let buf = std::fs::read(&file).map_err(|source| BagError::Io {
+            path: file.clone(),
+            source,
+        })?;
+        Self::from_bytes(&buf, &file)
+    }
+
+    /// Parses MCAP bytes; `path` labels errors.
+    pub fn from_bytes(buf: &[u8], path: &Path) -> Result<Self, BagError> {
+        let mcap_err = |e: mcap::McapError| BagError::Mcap {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        };
+        let not_ros2 = |message: String| BagError::NotRos2 {
+            path: path.to_path_buf(),
+            message,
+        };
+        // The header record carries the profile.
+        let mut linear = mcap::read::LinearReader::new(buf).map_err(mcap_err)?;
+        match linear.next() {
+            Some(Ok(mcap::records::Record::Header(h))) => {
+                if h.profile != "ros2" {
+                    return Err(not_ros2(format!(
+                        "MCAP profile is `{}`, expected `ros2`",
+                        h.profile
+                    )));
+                }
+            }
+            Some(Err(e)) => return Err(mcap_err(e)),
+            _ => {
+                return Err(not_ros2(
+                    "MCAP file does not start with a header record".into(),
+                ))
+            }
+        }
+        let mut topics: Vec<TopicInfo> = Vec::new();
+        let mut channel_index: std::collections::HashMap<u16, usize> = Default::default();
+        let mut messages = Vec::new();
+        for m in mcap::MessageStream::new(buf).map_err(mcap_err)? {
+            let m = m.map_err(mcap_err)?;
+            let idx = match channel_index.get(&m.channel.id) {
+                Some(&i) => i,
+                None => {
+                    let ch = &m.channel;
+                    if ch.message_encoding != "cdr" {
+                        return Err(not_ros2(format!(
+                            "topic {} has message encoding `{}`, expected `cdr`",
+                            ch.topic, ch.message_encoding
+                        )));
+                    }
+                    let schema = ch
+                        .schema
+                        .as_ref()
+                        .ok_or_else(|| not_ros2(format!("topic {} has no schema", ch.topic)))?;
+                    if schema.encoding != "ros2msg" && schema.encoding != "ros2idl" {
+                        return Err(not_ros2(format!(
+                            "topic {} has schema encoding `{}`, expected `ros2msg`",
+                            ch.topic, schema.encoding
+                        )));
+                    }
+                    topics.push(TopicInfo {
+                        name: ch.topic.clone(),
+                        ros_type: schema.name.clone(),
+                        count: 0,
+                        qos: ch.metadata.get("offered_qos_profiles").cloned(),
+                    });
+                    channel_index.insert(ch.id, topics.len() - 1);
+                    topics.len() - 1
+                }
+            };
+            topics[idx].count += 1;
+            messages.push(RawMessage {
+                topic: idx,
+                log_ns: m.log_time,
+                publish_ns: m.publish_time,
+                sequence: m.sequence,
+                data: m.data.into_owned(),
+            });
+        }
+        messages.sort_by_key(|m| m.log_ns);
+        Ok(Self {
+            path: path.to_path_buf(),
+            topics,
+            messages,
+        })
+    }
+
+    /// Index of `topic`, if present.
+    pub fn topic(&self, name: &str) -> Option<usize> {
+        self.topics.iter().position(|t| t.name == name)
+    }
+
+    /// Decodes message `index` as `M`, checking the topic's type is `M`'s.
+    pub fn decode<M: DeserializeOwned + crate::ros::msg::RosMessage>(
+        &self,
+        index: usize,
+    ) -> Result<M, BagError> {
+        let m = &self.messages[index];
+        let t = &self.topics[m.topic];
+        let err = |message: String| BagError::Decode {
+            path: self.path.clone(),
+            topic: t.name.clone(),
+            ros_type: t.ros_type.clone(),
+            index,
+            message,
+        };
+        if t.ros_type != M::ROS_TYPE {
+            return Err(err(format!("is not a {}", M::ROS_TYPE)));
+        }
+        cdr::decode(&m.data).map_err(err)
+    }
+
+    /// Topics, counts and time range.
+    pub fn info(&self) -> BagInfo {
+        BagInfo {
+            topics: self.topics.clone(),
+            message_count: self.messages.len(),
+            start_ns: self.messages.first().map_or(0, |m| m.log_ns),
+            end_ns: self.messages.last().map_or(0, |m| m.log_ns),
+        }
+    }
+}
