@@ -25,9 +25,11 @@ pub fn decode<M: DeserializeOwned>(data: &[u8]) -> Result<M, String> {
     let r = match (data[0], data[1]) {
         (0, 1) => cdr_encoding::from_bytes::<M, LittleEndian>(body),
         (0, 0) => cdr_encoding::from_bytes::<M, BigEndian>(body),
-        (a, b) => return Err(format!(
+        (a, b) => {
+            return Err(format!(
             "encapsulation {a:#04x}{b:02x} is not plain CDR (XCDR2 and PL_CDR are not supported)"
-        )),
+        ))
+        }
     };
     r.map(|(m, _)| m).map_err(|e| e.to_string())
 }

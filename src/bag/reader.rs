@@ -151,7 +151,8 @@ impl Bag {
         let mut topics: Vec<TopicInfo> = Vec::new();
         let mut channel_index: std::collections::HashMap<u16, usize> = Default::default();
         let mut messages = Vec::new();
-        for m in mcap::MessageStream::new(buf).map_err(mcap_err)? {
+        let validate = mcap::read::Options::ValidateChunkCrcs.into();
+        for m in mcap::MessageStream::new_with_options(buf, validate).map_err(mcap_err)? {
             let m = m.map_err(mcap_err)?;
             let idx = match channel_index.get(&m.channel.id) {
                 Some(&i) => i,

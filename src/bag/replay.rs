@@ -26,6 +26,18 @@ pub struct ReplayTopics {
     pub command: String,
 }
 
+impl ReplayTopics {
+    /// The absolute topic names of a node configured by `n`.
+    pub fn for_node(n: &crate::ros::NodeConfig) -> Self {
+        let name = |t: &str| crate::ros::dds::expand_topic(t, &n.namespace, &n.name);
+        Self {
+            joint_states: name(&n.topics.joint_states),
+            condition: name(&n.topics.symmetry_condition),
+            command: name(&n.topics.command),
+        }
+    }
+}
+
 /// Outcome of a replay.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReplayReport {

@@ -438,16 +438,9 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
 /// Replays the recorded bag; (commands compared, max deviation).
 fn replay_bag(dir: &Path, config: &Path) -> anyhow::Result<(usize, f64)> {
     use crossym::bag::replay::{replay, ReplayTopics};
-    use crossym::ros::dds::expand_topic;
     let bag = crossym::bag::Bag::open(dir)?;
     let (_, mut core) = super::ros::build_core(config, &super::ros::NodeOverrides::default())?;
-    let n = core.config().clone();
-    let name = |t: &str| expand_topic(t, &n.namespace, &n.name);
-    let topics = ReplayTopics {
-        joint_states: name(&n.topics.joint_states),
-        condition: name(&n.topics.symmetry_condition),
-        command: name(&n.topics.command),
-    };
+    let topics = ReplayTopics::for_node(core.config());
     let r = replay(&bag, &mut core, &topics)?;
     anyhow::ensure!(
         r.unmatched == 0 && r.commands > 0,

@@ -189,16 +189,9 @@ pub fn replay(
     tolerance: f64,
 ) -> anyhow::Result<ExitCode> {
     use crossym::bag::replay::{replay, ReplayTopics};
-    use crossym::ros::dds::expand_topic;
     let bag = crossym::bag::Bag::open(bag_path)?;
     let (_, mut core) = build_core(config, o)?;
-    let n = core.config().clone();
-    let name = |t: &str| expand_topic(t, &n.namespace, &n.name);
-    let topics = ReplayTopics {
-        joint_states: name(&n.topics.joint_states),
-        condition: name(&n.topics.symmetry_condition),
-        command: name(&n.topics.command),
-    };
+    let topics = ReplayTopics::for_node(core.config());
     let r = replay(&bag, &mut core, &topics)?;
     println!(
         "replayed {}: {} inputs, {} commands recomputed, {} without their input snapshot",

@@ -206,9 +206,19 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
         domain,
         &hw_log,
     );
+    let bag_dir = dir.join("bag");
+    let _ = std::fs::remove_dir_all(&bag_dir);
     let mut node = Proc::spawn(
         "node",
-        &["node", "--config", cfg_s, "--output", output],
+        &[
+            "node",
+            "--config",
+            cfg_s,
+            "--output",
+            output,
+            "--record",
+            bag_dir.to_str().unwrap(),
+        ],
         domain,
         &node_log,
     );
@@ -252,6 +262,28 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
     } else {
         assert!(s.last_command.iter().all(|v| v.is_finite()));
     }
+    // The recorded run replays bit for bit through the node's logic (conditions switched
+    // mid-run and resets included).
+    let bag = crossym::bag::Bag::open(&bag_dir).unwrap();
+    let mut o = crossym::ros::NodeCore::new(
+        cfg.load_robot().unwrap().kinematics,
+        policy.clone(),
+        node_cfg.safety,
+        crossym::ros::NodeConfig {
+            output: match output {
+                "position" => crossym::ros::OutputMode::Position,
+                _ => crossym::ros::OutputMode::Velocity,
+            },
+            ..node_cfg.clone()
+        },
+    )
+    .unwrap();
+    let topics = crossym::bag::replay::ReplayTopics::for_node(o.config());
+    let r = crossym::bag::replay::replay(&bag, &mut o, &topics).unwrap();
+    assert!(r.commands > 300 && r.unmatched == 0, "{r:?}");
+    assert_eq!(r.max(), 0.0, "{r:?}");
+    let c = bag.topic(&topics.condition).unwrap();
+    assert!(bag.topics[c].count >= steps.len(), "conditions recorded");
     for (r, st) in results.iter().zip(&steps) {
         let off = score(
             &policy,

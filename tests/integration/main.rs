@@ -2,6 +2,7 @@
 //! one module per concept.
 
 mod augmentation;
+mod bag;
 mod check;
 mod common;
 mod data;
