@@ -2,7 +2,7 @@
 //!
 //! Threads:
 //! - **I/O** (tokio, one worker): the subscriptions `/joint_states` (best effort) and
-//!   `~/symmetry_condition` (reliable) feed an [`InputGate`]; after each message the
+//!   `~/symmetry_condition` (reliable) feed an [`InputGate`](super::InputGate); after each message the
 //!   validated [`Inputs`] are published into a lock-free triple buffer (latest value wins).
 //!   Rejections are logged to rosout (at most once per second per kind). The ros2-client
 //!   spinner (graph, parameter services) and the SIGINT/SIGTERM handler run here too.
