@@ -99,6 +99,20 @@ enum Command {
         /// Largest accepted |recorded − recomputed| (rad/s or rad).
         #[arg(long, default_value_t = 1e-9)]
         tolerance: f64,
+        /// Instead: publish the recorded joint states and conditions over DDS at the
+        /// recorded rate (like `ros2 bag play`), for a node or driver under test.
+        #[arg(long)]
+        live: bool,
+        /// Playback rate factor (with --live).
+        #[arg(long, default_value_t = 1.0)]
+        rate: f64,
+        /// Keep the recorded header stamps (with --live; by default they are set to the
+        /// publish time, as a node checking stamps needs).
+        #[arg(long)]
+        keep_stamps: bool,
+        /// Wait this long for discovery before the first message (s, with --live).
+        #[arg(long, default_value_t = 1.0)]
+        delay_s: f64,
     },
     /// Run the mock hardware: integrate commands, publish /joint_states, log limit violations.
     /// Exits 1 when it saw a limit violation.
@@ -154,7 +168,17 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             config,
             overrides,
             tolerance,
-        } => ros::replay(&bag, &config, &overrides, tolerance),
+            live,
+            rate,
+            keep_stamps,
+            delay_s,
+        } => {
+            if live {
+                ros::replay_live(&bag, &config, rate, keep_stamps, delay_s)
+            } else {
+                ros::replay(&bag, &config, &overrides, tolerance)
+            }
+        }
         Command::MockHw {
             config,
             summary,

@@ -401,3 +401,86 @@ fn node_refuses_bad_setup() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("ROS_DOMAIN_ID"));
 }
+
+/// `crossym replay --live` publishes a recorded bag's inputs over DDS at the recorded
+/// rate; a node recording meanwhile receives the same joint positions and conditions, and
+/// its own recording replays exactly offline.
+#[test]
+fn live_replay_feeds_a_node() {
+    use crossym::bag::Bag;
+    use crossym::ros::msg;
+    let dir = tmp_dir("live");
+    let domain = 64u16;
+    let golden = common::root().join("tests/data/golden_letters");
+    let cfg_s = letters_config();
+    let bag_dir = dir.join("bag");
+    let _ = std::fs::remove_dir_all(&bag_dir);
+    let node_log = dir.join("node.log");
+    let mut node = Proc::spawn(
+        "node",
+        &[
+            "node",
+            "--config",
+            cfg_s.to_str().unwrap(),
+            "--record",
+            bag_dir.to_str().unwrap(),
+        ],
+        domain,
+        &node_log,
+    );
+    let out = Command::new(exe())
+        .args(["replay", golden.to_str().unwrap(), "--live", "--config"])
+        .arg(&cfg_s)
+        .args(["--delay-s", "2"])
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_LOCALHOST_ONLY", "1")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(node.term(), 0, "{}", log_tail(&node_log));
+    let played = Bag::open(&golden).unwrap();
+    let got = Bag::open(&bag_dir).unwrap();
+    let positions = |b: &Bag| -> Vec<Vec<f64>> {
+        let t = b.topic("/joint_states").unwrap();
+        (0..b.messages.len())
+            .filter(|&i| b.messages[i].topic == t)
+            .map(|i| b.decode::<msg::JointState>(i).unwrap().position)
+            .collect()
+    };
+    let (want, have) = (positions(&played), positions(&got));
+    assert!(
+        have.len() * 10 >= want.len() * 9,
+        "{} of {} joint states arrived",
+        have.len(),
+        want.len()
+    );
+    // Every received joint state is one of the played ones, in order.
+    let mut k = 0;
+    for h in &have {
+        while k < want.len() && &want[k] != h {
+            k += 1;
+        }
+        assert!(
+            k < want.len(),
+            "a received joint state was not played (or out of order)"
+        );
+    }
+    let c = got.topic("/crossym/symmetry_condition").unwrap();
+    assert_eq!(got.topics[c].count, 2);
+    let cfg = Config::from_file(&cfg_s).unwrap();
+    let n = cfg.node.clone().unwrap();
+    let policy = Policy::load(cfg.resolve(n.policy.as_ref().unwrap())).unwrap();
+    let mut core =
+        crossym::ros::NodeCore::new(cfg.load_robot().unwrap().kinematics, policy, n.safety, n)
+            .unwrap();
+    let topics = crossym::bag::replay::ReplayTopics::for_node(core.config());
+    let r = crossym::bag::replay::replay(&got, &mut core, &topics).unwrap();
+    assert!(r.commands > 100 && r.unmatched == 0, "{r:?}");
+    assert_eq!(r.max(), 0.0);
+}
