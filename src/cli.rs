@@ -81,6 +81,22 @@ enum Command {
         #[arg(long)]
         record: Option<PathBuf>,
     },
+    /// Record topics over DDS into a new rosbag2 MCAP bag until Ctrl-C (the node's own
+    /// `--record` also stores what offline replay needs; this recorder does not).
+    Record {
+        /// Output bag directory (must not exist).
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Record the four topics of the node configured here.
+        #[arg(long, short)]
+        config: Option<PathBuf>,
+        /// Extra topic `NAME:pkg/msg/Type`, repeatable.
+        #[arg(long = "topic")]
+        topics: Vec<String>,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration_s: Option<f64>,
+    },
     /// Inspect a rosbag2 MCAP bag.
     Bag {
         #[command(subcommand)]
@@ -160,6 +176,12 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             overrides,
             record,
         } => ros::node(&config, &overrides, record.as_deref()),
+        Command::Record {
+            out,
+            config,
+            topics,
+            duration_s,
+        } => ros::record(&out, &topics, config.as_deref(), duration_s),
         Command::Bag {
             what: BagCommand::Info { bag },
         } => ros::bag_info(&bag),

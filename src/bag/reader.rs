@@ -193,6 +193,26 @@ impl Bag {
                 data: m.data.into_owned(),
             });
         }
+        // Channels without messages (from the summary, when there is one).
+        if let Ok(Some(summary)) = mcap::Summary::read(buf) {
+            let mut ids: Vec<_> = summary.channels.keys().copied().collect();
+            ids.sort();
+            for id in ids {
+                let ch = &summary.channels[&id];
+                if channel_index.contains_key(&id) || ch.message_encoding != "cdr" {
+                    continue;
+                }
+                if let Some(schema) = &ch.schema {
+                    topics.push(TopicInfo {
+                        name: ch.topic.clone(),
+                        ros_type: schema.name.clone(),
+                        count: 0,
+                        qos: ch.metadata.get("offered_qos_profiles").cloned(),
+                    });
+                    channel_index.insert(id, topics.len() - 1);
+                }
+            }
+        }
         messages.sort_by_key(|m| m.log_ns);
         Ok(Self {
             path: path.to_path_buf(),

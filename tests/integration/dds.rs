@@ -484,3 +484,68 @@ fn live_replay_feeds_a_node() {
     assert!(r.commands > 100 && r.unmatched == 0, "{r:?}");
     assert_eq!(r.max(), 0.0);
 }
+
+/// `crossym record` subscribes over DDS beside a running node and mock hardware and writes
+/// a bag with all four topics that crossym and the node's types decode.
+#[test]
+fn standalone_recorder_over_dds() {
+    use crossym::bag::Bag;
+    let dir = tmp_dir("record");
+    let domain = 65u16;
+    let cfg_s = letters_config();
+    let c = cfg_s.to_str().unwrap();
+    let mut hw = Proc::spawn(
+        "mock-hw",
+        &["mock-hw", "--config", c],
+        domain,
+        &dir.join("hw.log"),
+    );
+    let mut node = Proc::spawn(
+        "node",
+        &["node", "--config", c],
+        domain,
+        &dir.join("node.log"),
+    );
+    let out_dir = dir.join("bag");
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let out = Command::new(exe())
+        .args(["record", "--config", c, "--duration-s", "3", "--out"])
+        .arg(&out_dir)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_LOCALHOST_ONLY", "1")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+    let bag = Bag::open(&out_dir).unwrap();
+    for (t, min) in [
+        ("/joint_states", 100),
+        ("/forward_velocity_controller/commands", 100),
+        ("/crossym/status", 5),
+    ] {
+        let i = bag.topic(t).unwrap_or_else(|| panic!("{t} missing"));
+        assert!(bag.topics[i].count >= min, "{t}: {}", bag.topics[i].count);
+    }
+    let cmd = bag.topic("/forward_velocity_controller/commands").unwrap();
+    for (i, m) in bag.messages.iter().enumerate() {
+        if m.topic == cmd {
+            let a: crossym::ros::msg::Float64MultiArray = bag.decode(i).unwrap();
+            assert_eq!(a.data.len(), 8);
+            assert!(a.data.iter().all(|v| v.is_finite() && v.abs() <= 3.0));
+        }
+    }
+    // Unknown types are refused before anything is recorded.
+    let out = Command::new(exe())
+        .args(["record", "--topic", "/x:geometry_msgs/msg/Twist", "--out"])
+        .arg(dir.join("bad"))
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("geometry_msgs/msg/Twist"));
+}
