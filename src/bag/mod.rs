@@ -15,6 +15,7 @@
 //! with bit 31 set on the final shutdown command.
 
 pub mod cdr;
+mod error;
 pub mod reader;
 pub mod replay;
 pub mod schema;
@@ -23,60 +24,4 @@ pub mod writer;
 pub use reader::{Bag, BagInfo, RawMessage, TopicInfo};
 pub use writer::{BagWriter, Qos};
 
-use std::path::PathBuf;
-
-/// Errors reading or writing bags; each names the file.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum BagError {
-    /// File-system error.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file or directory.
-        path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// The MCAP container is malformed (truncated, corrupt chunk, bad magic …).
-    #[error("{path}: not a readable MCAP file: {message}")]
-    Mcap {
-        /// The file.
-        path: PathBuf,
-        /// The mcap crate's description.
-        message: String,
-    },
-    /// The MCAP profile is not `ros2` or a channel is not CDR.
-    #[error("{path}: {message}")]
-    NotRos2 {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        message: String,
-    },
-    /// A message could not be decoded as its type.
-    #[error("{path}: message {index} on {topic} ({ros_type}): {message}")]
-    Decode {
-        /// The file.
-        path: PathBuf,
-        /// Topic.
-        topic: String,
-        /// ROS type.
-        ros_type: String,
-        /// Index of the message in the file's log order.
-        index: usize,
-        /// Why.
-        message: String,
-    },
-    /// A topic's type is not one crossym knows.
-    #[error("{path}: topic {topic} has type `{ros_type}`, which crossym cannot {what}")]
-    UnknownType {
-        /// The file.
-        path: PathBuf,
-        /// Topic.
-        topic: String,
-        /// The type.
-        ros_type: String,
-        /// `decode` or `record`.
-        what: &'static str,
-    },
-}
+pub use error::BagError;

@@ -130,6 +130,10 @@ impl Bag {
             path: path.to_path_buf(),
             message,
         };
+        precheck(buf).map_err(|message| BagError::Mcap {
+            path: path.to_path_buf(),
+            message,
+        })?;
         // The header record carries the profile.
         let mut linear = mcap::read::LinearReader::new(buf).map_err(mcap_err)?;
         match linear.next() {
@@ -255,4 +259,50 @@ impl Bag {
             end_ns: self.messages.last().map_or(0, |m| m.log_ns),
         }
     }
+}
+
+/// Walks the data section's records and refuses chunks whose declared uncompressed size is
+/// implausible (the mcap crate reserves that size before decompressing: a corrupt chunk
+/// header would otherwise abort the process). Found by the `bag_reader` fuzz target.
+fn precheck(buf: &[u8]) -> Result<(), String> {
+    const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+    const MAX_UNCOMPRESSED: u64 = 1 << 30;
+    const MAX_RATIO: u64 = 1024;
+    if buf.len() < MAGIC.len() || &buf[..MAGIC.len()] != MAGIC {
+        return Err("bad magic: not an MCAP file".into());
+    }
+    let u64_at = |o: usize| -> Option<u64> {
+        buf.get(o..o + 8)
+            .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")))
+    };
+    let mut off = MAGIC.len();
+    while off < buf.len() {
+        let op = buf[off];
+        let len =
+            u64_at(off + 1).ok_or_else(|| format!("truncated record header at byte {off}"))?;
+        let body = off + 9;
+        let end = (body as u64)
+            .checked_add(len)
+            .filter(|&e| e <= buf.len() as u64)
+            .ok_or_else(|| {
+                format!("record at byte {off} runs past the end of the file (truncated?)")
+            })? as usize;
+        match op {
+            0x06 => {
+                // Chunk: start u64, end u64, uncompressed_size u64, crc u32, compression
+                // string, records length u64, records.
+                let size = u64_at(body + 16).ok_or("truncated chunk header")?;
+                let compressed = len.saturating_sub(8 * 4 + 4 + 4);
+                if size > MAX_UNCOMPRESSED || size > MAX_RATIO.saturating_mul(compressed.max(1)) {
+                    return Err(format!(
+                        "chunk at byte {off} declares {size} uncompressed bytes for {compressed} stored (corrupt)"
+                    ));
+                }
+            }
+            0x0F | 0x02 => return Ok(()), // DataEnd, Footer: the data section is over.
+            _ => {}
+        }
+        off = end;
+    }
+    Ok(())
 }

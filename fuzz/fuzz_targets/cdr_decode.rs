@@ -1,0 +1,20 @@
+//! Arbitrary bytes as CDR payloads of every node message type: decode must return Ok or
+//! an error, never panic or allocate without bound.
+#![no_main]
+#![allow(dead_code)]
+
+use libfuzzer_sys::fuzz_target;
+
+#[path = "shared.rs"]
+mod shared;
+use shared::ros;
+use shared::bag::cdr::decode;
+use ros::msg;
+
+fuzz_target!(|data: &[u8]| {
+    let _ = decode::<msg::JointState>(data);
+    let _ = decode::<msg::SymmetryCondition>(data);
+    let _ = decode::<msg::Float64MultiArray>(data);
+    let _ = decode::<msg::JointTrajectory>(data);
+    let _ = decode::<msg::Status>(data);
+});

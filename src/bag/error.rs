@@ -1,0 +1,59 @@
+//! Errors of the bag module.
+
+use std::path::PathBuf;
+
+/// Errors reading or writing bags; each names the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BagError {
+    /// File-system error.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The MCAP container is malformed (truncated, corrupt chunk, bad magic …).
+    #[error("{path}: not a readable MCAP file: {message}")]
+    Mcap {
+        /// The file.
+        path: PathBuf,
+        /// The mcap crate's description.
+        message: String,
+    },
+    /// The MCAP profile is not `ros2` or a channel is not CDR.
+    #[error("{path}: {message}")]
+    NotRos2 {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A message could not be decoded as its type.
+    #[error("{path}: message {index} on {topic} ({ros_type}): {message}")]
+    Decode {
+        /// The file.
+        path: PathBuf,
+        /// Topic.
+        topic: String,
+        /// ROS type.
+        ros_type: String,
+        /// Index of the message in the file's log order.
+        index: usize,
+        /// Why.
+        message: String,
+    },
+    /// A topic's type is not one crossym knows.
+    #[error("{path}: topic {topic} has type `{ros_type}`, which crossym cannot {what}")]
+    UnknownType {
+        /// The file.
+        path: PathBuf,
+        /// Topic.
+        topic: String,
+        /// The type.
+        ros_type: String,
+        /// `decode` or `record`.
+        what: &'static str,
+    },
+}
