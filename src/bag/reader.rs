@@ -154,48 +154,89 @@ impl Bag {
         }
         let mut topics: Vec<TopicInfo> = Vec::new();
         let mut channel_index: std::collections::HashMap<u16, usize> = Default::default();
+        let mut schemas: std::collections::HashMap<u16, (String, String)> = Default::default();
+        let mut channels: std::collections::HashMap<u16, mcap::records::Channel> =
+            Default::default();
         let mut messages = Vec::new();
-        let validate = mcap::read::Options::ValidateChunkCrcs.into();
-        for m in mcap::MessageStream::new_with_options(buf, validate).map_err(mcap_err)? {
-            let m = m.map_err(mcap_err)?;
-            let idx = match channel_index.get(&m.channel.id) {
-                Some(&i) => i,
-                None => {
-                    let ch = &m.channel;
-                    if ch.message_encoding != "cdr" {
-                        return Err(not_ros2(format!(
-                            "topic {} has message encoding `{}`, expected `cdr`",
-                            ch.topic, ch.message_encoding
-                        )));
-                    }
-                    let schema = ch
-                        .schema
-                        .as_ref()
-                        .ok_or_else(|| not_ros2(format!("topic {} has no schema", ch.topic)))?;
-                    if schema.encoding != "ros2msg" && schema.encoding != "ros2idl" {
-                        return Err(not_ros2(format!(
-                            "topic {} has schema encoding `{}`, expected `ros2msg`",
-                            ch.topic, schema.encoding
-                        )));
-                    }
-                    topics.push(TopicInfo {
-                        name: ch.topic.clone(),
-                        ros_type: schema.name.clone(),
-                        count: 0,
-                        qos: ch.metadata.get("offered_qos_profiles").cloned(),
-                    });
-                    channel_index.insert(ch.id, topics.len() - 1);
-                    topics.len() - 1
+        // The sans-io reader with a record-length limit: `MessageStream` has none inside
+        // chunks, so a corrupt record length there would make it reserve without bound
+        // (found by the `bag_reader` fuzz target).
+        let limit = buf
+            .len()
+            .saturating_mul(64)
+            .saturating_add(1 << 20)
+            .min(1 << 30);
+        let mut reader = mcap::sans_io::LinearReader::new_with_options(
+            mcap::sans_io::LinearReaderOptions::default()
+                .with_record_length_limit(limit)
+                .with_validate_chunk_crcs(true),
+        );
+        let mut fed = 0usize;
+        while let Some(event) = reader.next_event() {
+            match event.map_err(mcap_err)? {
+                mcap::sans_io::LinearReadEvent::ReadRequest(n) => {
+                    let take = n.min(buf.len() - fed);
+                    reader.insert(take).copy_from_slice(&buf[fed..fed + take]);
+                    reader.notify_read(take);
+                    fed += take;
                 }
-            };
-            topics[idx].count += 1;
-            messages.push(RawMessage {
-                topic: idx,
-                log_ns: m.log_time,
-                publish_ns: m.publish_time,
-                sequence: m.sequence,
-                data: m.data.into_owned(),
-            });
+                mcap::sans_io::LinearReadEvent::Record { data, opcode } => {
+                    match mcap::parse_record(opcode, data).map_err(mcap_err)? {
+                        mcap::records::Record::Schema { header, .. } => {
+                            schemas.insert(header.id, (header.name, header.encoding));
+                        }
+                        mcap::records::Record::Channel(ch) => {
+                            channels.entry(ch.id).or_insert(ch);
+                        }
+                        mcap::records::Record::Message { header, data } => {
+                            let idx = match channel_index.get(&header.channel_id) {
+                                Some(&i) => i,
+                                None => {
+                                    let ch = channels.get(&header.channel_id).ok_or_else(|| {
+                                        not_ros2(format!(
+                                            "message on unknown channel {}",
+                                            header.channel_id
+                                        ))
+                                    })?;
+                                    if ch.message_encoding != "cdr" {
+                                        return Err(not_ros2(format!(
+                                            "topic {} has message encoding `{}`, expected `cdr`",
+                                            ch.topic, ch.message_encoding
+                                        )));
+                                    }
+                                    let (name, enc) =
+                                        schemas.get(&ch.schema_id).ok_or_else(|| {
+                                            not_ros2(format!("topic {} has no schema", ch.topic))
+                                        })?;
+                                    if enc != "ros2msg" && enc != "ros2idl" {
+                                        return Err(not_ros2(format!(
+                                            "topic {} has schema encoding `{enc}`, expected `ros2msg`",
+                                            ch.topic
+                                        )));
+                                    }
+                                    topics.push(TopicInfo {
+                                        name: ch.topic.clone(),
+                                        ros_type: name.clone(),
+                                        count: 0,
+                                        qos: ch.metadata.get("offered_qos_profiles").cloned(),
+                                    });
+                                    channel_index.insert(ch.id, topics.len() - 1);
+                                    topics.len() - 1
+                                }
+                            };
+                            topics[idx].count += 1;
+                            messages.push(RawMessage {
+                                topic: idx,
+                                log_ns: header.log_time,
+                                publish_ns: header.publish_time,
+                                sequence: header.sequence,
+                                data: data.into_owned(),
+                            });
+                        }
+                        _ => {}
+                    }
+                }
+            }
         }
         // Channels without messages (from the summary, when there is one).
         if let Ok(Some(summary)) = mcap::Summary::read(buf) {

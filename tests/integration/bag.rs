@@ -371,9 +371,14 @@ fn broken_bags_are_clear_errors() {
     }
     // Fuzz regression: a chunk declaring a huge uncompressed size (the mcap crate would
     // reserve it and abort) is refused before decompression.
-    let crash = common::root().join("tests/data/fuzz/bag_reader_chunk_size.mcap");
-    let e = Bag::open(&crash).unwrap_err().to_string();
-    assert!(e.contains("not a readable MCAP"), "{e}");
+    for f in [
+        "bag_reader_chunk_size.mcap",
+        "bag_reader_record_length.mcap",
+    ] {
+        let crash = common::root().join("tests/data/fuzz").join(f);
+        let e = Bag::open(&crash).unwrap_err().to_string();
+        assert!(e.contains("not a readable MCAP"), "{f}: {e}");
+    }
     // A payload that is not CDR decodes to an error.
     let mut w = BagWriter::create(&tmp("badcdr")).unwrap();
     let t = w
