@@ -181,6 +181,15 @@ impl Bag {
                     fed += take;
                 }
                 mcap::sans_io::LinearReadEvent::Record { data, opcode } => {
+                    // Only schemas, channels and messages are needed; their length prefixes
+                    // are checked first (the mcap crate allocates what a prefix declares).
+                    if !matches!(opcode, 0x03..=0x05) {
+                        continue;
+                    }
+                    check_lengths(opcode, data).map_err(|m| BagError::Mcap {
+                        path: path.to_path_buf(),
+                        message: m,
+                    })?;
                     match mcap::parse_record(opcode, data).map_err(mcap_err)? {
                         mcap::records::Record::Schema { header, .. } => {
                             schemas.insert(header.id, (header.name, header.encoding));
@@ -344,6 +353,49 @@ fn precheck(buf: &[u8]) -> Result<(), String> {
             _ => {}
         }
         off = end;
+    }
+    Ok(())
+}
+
+/// Checks that every length prefix of a Schema (0x03) or Channel (0x04) record body fits in
+/// the record (found by the `bag_reader` fuzz target: the mcap crate allocates the declared
+/// string length before reading it).
+fn check_lengths(opcode: u8, d: &[u8]) -> Result<(), String> {
+    let bad = || format!("record {opcode:#04x} has a length prefix beyond its end (corrupt)");
+    let u32_at = |o: usize| -> Result<usize, String> {
+        d.get(o..o + 4)
+            .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize)
+            .ok_or_else(bad)
+    };
+    // Skips a u32-prefixed byte string at `o`, returning the offset after it.
+    let skip = |o: usize| -> Result<usize, String> {
+        let n = u32_at(o)?;
+        let end = (o + 4)
+            .checked_add(n)
+            .filter(|&e| e <= d.len())
+            .ok_or_else(bad)?;
+        Ok(end)
+    };
+    match opcode {
+        0x03 => {
+            let o = skip(2)?; // name
+            let o = skip(o)?; // encoding
+            skip(o)?; // data
+        }
+        0x04 => {
+            let o = skip(4)?; // topic
+            let o = skip(o)?; // message encoding
+            let map_end = skip(o)?; // metadata map (byte length)
+            let mut k = o + 4;
+            while k < map_end {
+                k = skip(k)?;
+                k = skip(k)?;
+                if k > map_end {
+                    return Err(bad());
+                }
+            }
+        }
+        _ => {}
     }
     Ok(())
 }
