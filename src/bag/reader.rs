@@ -134,23 +134,16 @@ impl Bag {
             path: path.to_path_buf(),
             message,
         })?;
-        // The header record carries the profile.
-        let mut linear = mcap::read::LinearReader::new(buf).map_err(mcap_err)?;
-        match linear.next() {
-            Some(Ok(mcap::records::Record::Header(h))) => {
-                if h.profile != "ros2" {
-                    return Err(not_ros2(format!(
-                        "MCAP profile is `{}`, expected `ros2`",
-                        h.profile
-                    )));
-                }
-            }
-            Some(Err(e)) => return Err(mcap_err(e)),
-            _ => {
-                return Err(not_ros2(
-                    "MCAP file does not start with a header record".into(),
-                ))
-            }
+        // The header record (right after the magic) carries the profile; parsed here with
+        // bounds checks (the mcap crate allocates declared string lengths first).
+        let profile = header_profile(buf).map_err(|message| BagError::Mcap {
+            path: path.to_path_buf(),
+            message,
+        })?;
+        if profile != "ros2" {
+            return Err(not_ros2(format!(
+                "MCAP profile is `{profile}`, expected `ros2`"
+            )));
         }
         let mut topics: Vec<TopicInfo> = Vec::new();
         let mut channel_index: std::collections::HashMap<u16, usize> = Default::default();
@@ -398,4 +391,28 @@ fn check_lengths(opcode: u8, d: &[u8]) -> Result<(), String> {
         _ => {}
     }
     Ok(())
+}
+
+/// The profile string of the Header record that follows the magic.
+fn header_profile(buf: &[u8]) -> Result<String, String> {
+    let o = 8; // after the magic (checked by `precheck`)
+    if buf.get(o) != Some(&0x01) {
+        return Err("MCAP file does not start with a header record".into());
+    }
+    let len = buf
+        .get(o + 1..o + 9)
+        .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")))
+        .ok_or("truncated header record")?;
+    let body = buf
+        .get(o + 9..)
+        .and_then(|b| b.get(..usize::try_from(len).ok()?))
+        .ok_or("truncated header record")?;
+    let n = body
+        .get(..4)
+        .map(|b| u32::from_le_bytes(b.try_into().expect("4 bytes")) as usize)
+        .ok_or("truncated header record")?;
+    let p = body
+        .get(4..4usize.saturating_add(n))
+        .ok_or("corrupt header record")?;
+    String::from_utf8(p.to_vec()).map_err(|_| "header profile is not UTF-8".into())
 }
