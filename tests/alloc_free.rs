@@ -430,6 +430,22 @@ fn tick_policy(n: usize, names: Vec<String>) -> crossym::policy::Policy {
     crossym::policy::Policy::synthetic(n, names, &[128, 128, 128], 11)
 }
 
+/// Asserts that the first allocation's innermost crossym/clarabel frame is in Clarabel's
+/// internal timers (the only allocation accepted on the solver path).
+fn assert_only_clarabel_timers(what: &str, first: Option<Backtrace>) {
+    if let Some(bt) = first {
+        let text = bt.to_string();
+        let inner = text
+            .lines()
+            .find(|l| l.contains("clarabel::") || l.contains("crossym::"))
+            .unwrap_or("");
+        assert!(
+            inner.contains("clarabel::timers"),
+            "[{what}] solver-path allocation outside Clarabel's timers:\n{text}"
+        );
+    }
+}
+
 /// The whole control tick — FK + Jacobian, MLP forward, safety QP — allocates nothing once
 /// set up, except inside Clarabel's timers on the solver path (bounded and attributed).
 fn audit_tick(robot: &str, kin: &crossym::kinematics::Kinematics, seed: u64) {
@@ -479,17 +495,7 @@ fn audit_tick(robot: &str, kin: &crossym::kinematics::Kinematics, seed: u64) {
         if rep.status == SafetyStatus::Filtered && rep.iterations > 0 {
             solver_calls += 1;
             solver_allocs += count;
-            if let Some(bt) = first {
-                let text = bt.to_string();
-                let inner = text
-                    .lines()
-                    .find(|l| l.contains("clarabel::") || l.contains("crossym::"))
-                    .unwrap_or("");
-                assert!(
-                    inner.contains("clarabel::timers"),
-                    "[{robot}] solver-path allocation outside Clarabel's timers:\n{text}"
-                );
-            }
+            assert_only_clarabel_timers(robot, first);
         } else {
             let at = first.map(|b| b.to_string()).unwrap_or_default();
             assert_eq!(
@@ -589,15 +595,7 @@ fn node_core_tick_is_allocation_free() {
         });
         assert!(cmd.velocities.iter().all(|v| v.is_finite()));
         if rep.safety == Some(SafetyStatus::Filtered) && count > 0 {
-            let text = first.map(|b| b.to_string()).unwrap_or_default();
-            let inner = text
-                .lines()
-                .find(|l| l.contains("clarabel::") || l.contains("crossym::"))
-                .unwrap_or("");
-            assert!(
-                inner.contains("clarabel::timers"),
-                "node tick allocated outside Clarabel's timers:\n{text}"
-            );
+            assert_only_clarabel_timers("node tick", first);
             solver_allocs += count;
         } else {
             let text = first.map(|b| b.to_string()).unwrap_or_default();

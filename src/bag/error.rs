@@ -44,16 +44,4 @@ pub enum BagError {
         /// Why.
         message: String,
     },
-    /// A topic's type is not one crossym knows.
-    #[error("{path}: topic {topic} has type `{ros_type}`, which crossym cannot {what}")]
-    UnknownType {
-        /// The file.
-        path: PathBuf,
-        /// Topic.
-        topic: String,
-        /// The type.
-        ros_type: String,
-        /// `decode` or `record`.
-        what: &'static str,
-    },
 }

@@ -17,7 +17,6 @@ use crate::data::letters::JointTrajectory;
 use crate::kinematics::Kinematics;
 use crate::ros::dds::{self, DdsError, DdsSettings};
 use crate::ros::msg;
-use crate::ros::node::NodeRunError;
 use crate::ros::{NodeConfig, StatusCode};
 use crate::symmetry::compose::Condition;
 
@@ -110,17 +109,6 @@ pub enum ScenarioError {
     },
 }
 
-impl From<NodeRunError> for ScenarioError {
-    fn from(e: NodeRunError) -> Self {
-        match e {
-            NodeRunError::Dds(d) => ScenarioError::Dds(d),
-            other => ScenarioError::Timeout {
-                what: other.to_string(),
-            },
-        }
-    }
-}
-
 /// Runs `steps` against a node + mock hardware already running in the same DDS domain.
 pub fn run(
     settings: DdsSettings,
@@ -165,10 +153,11 @@ pub fn run(
         if Instant::now() > deadline {
             return Err(ScenarioError::Timeout {
                 what: format!(
-                    "no {} from the mock hardware / no {} from the node within {:?}",
-                    if have_js { "problem" } else { "joint_states" },
+                    "within {discovery_timeout:?}: joint states on {} {}, status on {} {}",
+                    topics.joint_states,
+                    if have_js { "seen" } else { "never seen" },
                     topics.status,
-                    discovery_timeout
+                    if have_status { "seen" } else { "never seen" },
                 ),
             });
         }
