@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use crossym::config::Config;
 
 mod demo;
+mod density;
 mod ros;
 
 /// Cross-space symmetry compositions for robot policies.
@@ -58,7 +59,8 @@ enum Command {
         #[arg(long, short)]
         config: PathBuf,
         /// `label=path.safetensors`, repeatable (e.g. `pi_MRT=policies/pi_mrt.safetensors`).
-        #[arg(long = "policy", required = true)]
+        /// Without it, `[eval] policies` of the config.
+        #[arg(long = "policy")]
         policies: Vec<String>,
         /// Directory for `table2.md` and `table2.csv`.
         #[arg(long, default_value = "results")]
@@ -68,6 +70,9 @@ enum Command {
     /// conditions published as a user would, a per-condition table and a PNG of the letters.
     /// Exits 1 if a check failed (limit violation, RMSE ratio, node error).
     Demo(demo::DemoArgs),
+    /// The augmentation-density experiment: π_R trained per rotation step Δθ, RMSE against
+    /// the test rotation θ (CSV, Markdown and a PNG of the curves).
+    Density(density::DensityArgs),
     /// Run the ROS 2 node: joint states + symmetry condition → policy → safety QP → command.
     /// Honours ROS_DOMAIN_ID, ROS_LOCALHOST_ONLY, ROS_AUTOMATIC_DISCOVERY_RANGE.
     Node {
@@ -171,6 +176,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Info { config, q } => info(&config, q),
         Command::Check { config } => check(&config),
         Command::Demo(a) => demo::demo(&a),
+        Command::Density(a) => density::density(&a),
         Command::Node {
             config,
             overrides,
@@ -430,6 +436,12 @@ fn pipeline(
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
     let augmenter =
         letter_augmenter(kin, &built, &cfg.composition.order).map_err(anyhow::Error::msg)?;
+    for (label, grid) in [("train", &aug.train), ("test", &aug.test)] {
+        augmenter
+            .supports(grid)
+            .map_err(anyhow::Error::msg)
+            .with_context(|| format!("[augmentation] {label}"))?;
+    }
     let run = |label: &str, grid: &crossym::data::augmentation::GroupGrid, which: &[usize]| {
         let sel = demos.select(which);
         let bar = indicatif::ProgressBar::new((sel.len() * grid.scales.len()) as u64);
@@ -498,7 +510,7 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
                     .count(),
                 dropped
                     .iter()
-                    .filter(|d| d.2 == DropReason::JointLimits)
+                    .filter(|d| matches!(d.2, DropReason::JointLimits { .. }))
                     .count(),
             );
         }
@@ -506,6 +518,33 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
             "{label}: G_MRT augmentation took {secs:.2} s on {} threads",
             rayon::current_num_threads()
         );
+        // Dropped conditions, aggregated over demonstrations.
+        let mut by_cond: std::collections::BTreeMap<(i64, i64, i8, String), usize> =
+            Default::default();
+        for (_, c, r) in &set.dropped {
+            *by_cond
+                .entry((
+                    (c.theta.to_degrees() * 1e3).round() as i64,
+                    (c.scale * 1e3).round() as i64,
+                    c.reflection,
+                    match r {
+                        DropReason::JointLimits { joint } => {
+                            format!("limits of {}", robot.kinematics.joint_names()[*joint])
+                        }
+                        other => format!("{other:?}"),
+                    },
+                ))
+                .or_default() += 1;
+        }
+        if !by_cond.is_empty() {
+            let list: Vec<String> = by_cond
+                .iter()
+                .map(|((t, l, s, r), n)| {
+                    format!("({}°, {}, {s}) {r} ×{n}", *t as f64 / 1e3, *l as f64 / 1e3)
+                })
+                .collect();
+            println!("{label}: dropped (θ, λ, σ): {}", list.join("; "));
+        }
     }
     println!("paper (G_MRT): 780 train / 600 test trajectories");
     Ok(ExitCode::SUCCESS)
@@ -579,28 +618,55 @@ fn train(
 
 fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<ExitCode> {
     use crossym::data::augmentation::SubGroup;
+    use crossym::eval::plot::{write_paths_grid, PathPanel, XY_VIEW};
     use std::fmt::Write as _;
     let cfg = Config::from_file(path)?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
+    // `--policy label=path` (relative to the working directory), else `[eval] policies`
+    // (relative to the config file).
+    let specs: Vec<(String, PathBuf)> = if policies.is_empty() {
+        anyhow::ensure!(
+            !cfg.eval.policies.is_empty(),
+            "{}: no --policy given and no [eval] policies",
+            path.display()
+        );
+        cfg.eval
+            .policies
+            .iter()
+            .map(|(l, p)| (l.clone(), cfg.base_dir.join(p)))
+            .collect()
+    } else {
+        policies
+            .iter()
+            .map(|spec| {
+                spec.split_once('=')
+                    .map(|(l, p)| (l.to_string(), PathBuf::from(p)))
+                    .with_context(|| format!("--policy `{spec}`: expected label=path"))
+            })
+            .collect::<anyhow::Result<_>>()?
+    };
     let mut loaded = Vec::new();
-    for spec in policies {
-        let (label, file) = spec
-            .split_once('=')
-            .with_context(|| format!("--policy `{spec}`: expected label=path"))?;
-        let policy = crossym::policy::Policy::load(file)?;
+    for (label, file) in specs {
+        let policy = crossym::policy::Policy::load(&file)?;
         anyhow::ensure!(
             policy.meta.joint_names == kin.joint_names(),
-            "{file}: policy joints {:?} differ from the robot's {:?}",
+            "{}: policy joints {:?} differ from the robot's {:?}",
+            file.display(),
             policy.meta.joint_names,
             kin.joint_names()
         );
-        loaded.push((label.to_string(), policy));
+        loaded.push((label, policy));
     }
     let p = pipeline(&cfg, kin, (false, true))?;
     let mut md =
         String::from("| Policy | Original | G_R | G_RT | G_MRT |\n|---|---|---|---|---|\n");
     let mut csv = String::from("policy,test_set,mean_rmse,std_rmse,count,diverged\n");
+    let mut per_cond =
+        String::from("policy,theta_deg,scale,reflection,mean_rmse,std_rmse,count,diverged\n");
+    let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
+    let view = cfg.eval.view.unwrap_or(XY_VIEW);
+    let first_demo = p.demos.test.first().copied();
     for (label, policy) in &loaded {
         let mut row = format!("| {label} |");
         for g in SubGroup::ALL {
@@ -635,14 +701,82 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
         println!("{row}");
         md.push_str(&row);
         md.push('\n');
+        // Per condition (over the test demonstrations).
+        let aug = cfg.augmentation.as_ref().expect("checked by pipeline");
+        for cond in aug.test.conditions() {
+            let set: Vec<_> = p
+                .test
+                .trajectories
+                .iter()
+                .filter(|a| a.condition == cond)
+                .map(|a| (&a.traj, a.condition))
+                .collect();
+            if set.is_empty() {
+                continue;
+            }
+            let c = crossym::eval::evaluate(policy, kin, &set, &cfg.eval);
+            let _ = writeln!(
+                per_cond,
+                "{label},{},{},{},{},{},{},{}",
+                cond.theta.to_degrees(),
+                cond.scale,
+                cond.reflection,
+                c.mean,
+                c.std,
+                c.count,
+                c.diverged
+            );
+        }
+        // Figure: one panel per test set, up to 6 of its conditions on the first test demo.
+        let panels: Vec<PathPanel> = SubGroup::ALL
+            .iter()
+            .map(|&g| {
+                let sel: Vec<_> = p
+                    .test
+                    .subset(g)
+                    .into_iter()
+                    .filter(|a| Some(a.traj.demo) == first_demo)
+                    .collect();
+                let stride = sel.len().div_ceil(6).max(1);
+                PathPanel {
+                    m: kin.task_dim(),
+                    arm_dim,
+                    view,
+                    paths: sel
+                        .iter()
+                        .step_by(stride)
+                        .map(|a| {
+                            let exe =
+                                crossym::eval::rollout_path(policy, kin, &a.traj, &a.condition);
+                            (a.traj.x.clone(), exe)
+                        })
+                        .collect(),
+                }
+            })
+            .filter(|panel| !panel.paths.is_empty())
+            .collect();
+        if !panels.is_empty() {
+            std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+            let png = out.join(format!("trajectories_{label}.png"));
+            write_paths_grid(&png, &panels, panels.len(), 360).map_err(anyhow::Error::msg)?;
+        }
     }
+    md.push_str(
+        "\nRMSE in task units between the policy rollout and the nominal trajectory from the \
+         same initial configuration, both arms stacked, mean ± std over the test trajectories \
+         (diverged rollouts included and counted). Figures `trajectories_<policy>.png`: one \
+         panel per test set (Original, G_R, G_RT, G_MRT), up to 6 of its conditions on the \
+         first test demonstration; grey nominal, colour rollout (blue left arm, red right).\n",
+    );
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     std::fs::write(out.join("table2.md"), &md)?;
     std::fs::write(out.join("table2.csv"), &csv)?;
+    std::fs::write(out.join("conditions.csv"), &per_cond)?;
     println!(
-        "wrote {} and {}",
+        "wrote {}, {}, {} and trajectories_*.png",
         out.join("table2.md").display(),
-        out.join("table2.csv").display()
+        out.join("table2.csv").display(),
+        out.join("conditions.csv").display()
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -8,7 +8,7 @@ use std::time::Duration;
 use anyhow::Context;
 use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
-use crossym::eval::plot::{write_paths_png, PathPanel};
+use crossym::eval::plot::{write_paths_png, PathPanel, XY_VIEW};
 use crossym::eval::{score, EvalConfig};
 use crossym::policy::Policy;
 use crossym::ros::dds::{DdsSettings, DiscoveryRange};
@@ -403,14 +403,20 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
     ));
     md.push_str(&replay_line);
-    md.push_str("\nFigure `demo.png`: one panel per step, in table order; grey = nominal letters (transformed demonstration), colour = executed end-effector paths (blue left arm, red right arm).\n");
+    md.push_str("\nFigure `demo.png`: one panel per step, in table order; grey = nominal paths (transformed demonstration), colour = executed end-effector paths (blue left arm, red right arm).\n");
+    let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
+    let view = cfg.eval.view.unwrap_or(XY_VIEW);
     let panels: Vec<PathPanel> = results
         .iter()
         .zip(&steps)
-        .map(|(r, s)| PathPanel {
-            m: s.nominal.m,
-            nominal: s.nominal.x.clone(),
-            executed: r.path.clone(),
+        .map(|(r, s)| {
+            PathPanel::single(
+                s.nominal.m,
+                arm_dim,
+                view,
+                s.nominal.x.clone(),
+                r.path.clone(),
+            )
         })
         .collect();
     let png = a.out.join("demo.png");

@@ -37,6 +37,12 @@ pub struct GroupGrid {
     /// Include the reflection σ = −1.
     #[serde(default)]
     pub reflection: bool,
+    /// Largest |θ| kept from the rotation grid (degrees); absent → 180°.
+    #[serde(default)]
+    pub max_rotation_deg: Option<f64>,
+    /// An explicit list of conditions `[θ (degrees), λ, σ]` instead of a grid.
+    #[serde(default)]
+    pub conditions: Option<Vec<[f64; 3]>>,
 }
 
 fn one() -> Vec<f64> {
@@ -50,11 +56,38 @@ impl GroupGrid {
             rotation_step_deg: None,
             scales: one(),
             reflection: false,
+            max_rotation_deg: None,
+            conditions: None,
         }
     }
 
     /// Checks steps and scales; says what is wrong.
     pub fn validate(&self) -> Result<(), String> {
+        if let Some(list) = &self.conditions {
+            if self.rotation_step_deg.is_some()
+                || self.reflection
+                || self.max_rotation_deg.is_some()
+                || self.scales != one()
+            {
+                return Err(
+                    "`conditions` replaces rotation_step_deg, scales, reflection and \
+                     max_rotation_deg: give one or the other"
+                        .into(),
+                );
+            }
+            if list.is_empty() {
+                return Err("`conditions` is empty".into());
+            }
+            for c in self.conditions() {
+                c.validate()?;
+            }
+            return Ok(());
+        }
+        if let Some(m) = self.max_rotation_deg {
+            if !(m.is_finite() && m >= 0.0) {
+                return Err(format!("max_rotation_deg {m} must be non-negative"));
+            }
+        }
         if let Some(d) = self.rotation_step_deg {
             if !(d.is_finite() && d > 0.0 && d <= 180.0) {
                 return Err(format!("rotation_step_deg {d} must be in (0, 180]"));
@@ -71,17 +104,52 @@ impl GroupGrid {
 
     /// The rotation angles (rad), ascending, always containing 0.
     pub fn angles(&self) -> Vec<f64> {
+        if self.conditions.is_some() {
+            let mut a: Vec<f64> = self.conditions().iter().map(|c| c.theta).collect();
+            a.push(0.0);
+            a.sort_by(f64::total_cmp);
+            a.dedup();
+            return a;
+        }
         match self.rotation_step_deg {
             None => vec![0.0],
             Some(d) => {
-                let k = (180.0 / d + 1e-9).floor() as i64;
+                let max = self.max_rotation_deg.unwrap_or(180.0).min(180.0);
+                let k = (max / d + 1e-9).floor() as i64;
                 (-k..=k).map(|i| (i as f64 * d).to_radians()).collect()
             }
         }
     }
 
-    /// All conditions of the grid, in (σ, λ, θ) order.
+    /// The scaling factors used by the grid (or the explicit list), ascending.
+    pub fn scales_used(&self) -> Vec<f64> {
+        if self.conditions.is_some() {
+            let mut s: Vec<f64> = self.conditions().iter().map(|c| c.scale).collect();
+            s.sort_by(f64::total_cmp);
+            s.dedup();
+            return s;
+        }
+        self.scales.clone()
+    }
+
+    /// All conditions of the grid, in (σ, λ, θ) order (or the explicit list, in its order).
     pub fn conditions(&self) -> Vec<Condition> {
+        if let Some(list) = &self.conditions {
+            return list
+                .iter()
+                .map(|[t, l, s]| Condition {
+                    theta: t.to_radians(),
+                    scale: *l,
+                    reflection: if *s < 0.0 {
+                        -1
+                    } else if *s > 0.0 {
+                        1
+                    } else {
+                        0
+                    },
+                })
+                .collect();
+        }
         let sigmas: &[i8] = if self.reflection { &[1, -1] } else { &[1] };
         let mut out = Vec::new();
         for &reflection in sigmas {
@@ -164,12 +232,24 @@ impl SubGroup {
 impl GroupGrid {
     /// The grid restricted to a sub-group: `R` keeps rotations, `RT` adds scalings, `MRT` all.
     pub fn restrict(&self, g: SubGroup) -> Self {
+        if let Some(list) = &self.conditions {
+            let kept: Vec<[f64; 3]> = list
+                .iter()
+                .zip(self.conditions())
+                .filter(|(_, c)| g.contains(c))
+                .map(|(raw, _)| *raw)
+                .collect();
+            return Self {
+                conditions: Some(kept),
+                ..Self::identity()
+            };
+        }
         match g {
             SubGroup::Identity => Self::identity(),
             SubGroup::R => Self {
                 rotation_step_deg: self.rotation_step_deg,
-                scales: one(),
-                reflection: false,
+                max_rotation_deg: self.max_rotation_deg,
+                ..Self::identity()
             },
             SubGroup::RT => Self {
                 reflection: false,
@@ -194,8 +274,11 @@ pub struct Augmented {
 pub enum DropReason {
     /// A flow reached a kinematic singularity.
     Singular,
-    /// A sample left the joint limits.
-    JointLimits,
+    /// A sample left the limits of joint `joint` (index in the robot's joint order).
+    JointLimits {
+        /// The first joint found outside its limits.
+        joint: usize,
+    },
     /// The integrator failed.
     Integration,
 }
@@ -228,12 +311,14 @@ impl AugmentedSet {
 pub struct Augmenter<'a> {
     kin: &'a Kinematics,
     rotation: LiftedAction<'a>,
-    scaling: LiftedAction<'a>,
+    scaling: Option<LiftedAction<'a>>,
     reflection: SignedPermutation,
 }
 
 /// Picks `(ρ_Q, rotation, scaling)` from built symmetries named in `order` (outer → inner,
-/// eq. 23): a finite symmetry on `Q`, an SO(2) and a scaling on `X`, in that order.
+/// eq. 23): a finite symmetry on `Q`, an SO(2) and (optionally) a scaling on `X`, in that
+/// order. The pan-grasping task has no scaling: `order = [M, R]`.
+#[allow(clippy::type_complexity)]
 pub fn letter_group<'b>(
     built: &'b [BuiltSymmetry],
     order: &[String],
@@ -241,7 +326,7 @@ pub fn letter_group<'b>(
     (
         SignedPermutation,
         &'b dyn TaskGroupAction,
-        &'b dyn TaskGroupAction,
+        Option<&'b dyn TaskGroupAction>,
     ),
     String,
 > {
@@ -251,10 +336,14 @@ pub fn letter_group<'b>(
             .find(|b| b.name() == name)
             .ok_or_else(|| format!("no symmetry `{name}`"))
     };
-    let [m, r, s] = order else {
-        return Err(format!(
-            "[composition] order must name 3 symmetries (M, R, S), got {order:?}"
-        ));
+    let (m, r, s) = match order {
+        [m, r, s] => (m, r, Some(s)),
+        [m, r] => (m, r, None),
+        _ => {
+            return Err(format!(
+                "[composition] order must name (M, R, S) or (M, R), got {order:?}"
+            ))
+        }
     };
     let rho = match find(m)? {
         BuiltSymmetry::Finite { rho_q, .. } => rho_q.clone(),
@@ -273,7 +362,10 @@ pub fn letter_group<'b>(
         |s| matches!(s, LieGroupSpec::So2 { .. }),
         "an SO(2) rotation",
     )?;
-    let sc = lie(s, |s| matches!(s, LieGroupSpec::Scaling), "a scaling")?;
+    let sc = match s {
+        Some(s) => Some(lie(s, |s| matches!(s, LieGroupSpec::Scaling), "a scaling")?),
+        None => None,
+    };
     Ok((rho, rot, sc))
 }
 
@@ -294,10 +386,11 @@ impl<'a> Augmenter<'a> {
         progress: &(dyn Fn() + Sync),
     ) -> AugmentedSet {
         use rayon::prelude::*;
+        let scales = grid.scales_used();
         // One task per (demonstration, scale): enough tasks to keep both cores busy.
         let tasks: Vec<(&JointTrajectory, f64)> = demos
             .iter()
-            .flat_map(|d| grid.scales.iter().map(move |&s| (*d, s)))
+            .flat_map(|d| scales.iter().map(move |&s| (*d, s)))
             .collect();
         let parts: Vec<AugmentedSet> = tasks
             .par_iter()
@@ -319,7 +412,7 @@ impl<'a> Augmenter<'a> {
     pub fn new(
         kin: &'a Kinematics,
         rotation: LiftedAction<'a>,
-        scaling: LiftedAction<'a>,
+        scaling: Option<LiftedAction<'a>>,
         reflection: SignedPermutation,
     ) -> Result<Self, String> {
         if reflection.dim() != kin.dof() {
@@ -337,10 +430,22 @@ impl<'a> Augmenter<'a> {
         })
     }
 
+    /// Checks that this augmenter can produce every condition of `grid` (a scaling other
+    /// than 1 needs a scaling symmetry).
+    pub fn supports(&self, grid: &GroupGrid) -> Result<(), String> {
+        if self.scaling.is_none() && grid.scales_used().iter().any(|&s| s != 1.0) {
+            return Err(format!(
+                "the grid scales by {:?} but [composition] order names no scaling symmetry",
+                grid.scales_used()
+            ));
+        }
+        Ok(())
+    }
+
     /// Transforms one demonstration by every condition of `grid` (σ = +1 and −1 share flows).
     pub fn augment_one(&self, demo: &JointTrajectory, grid: &GroupGrid) -> AugmentedSet {
         let mut set = AugmentedSet::default();
-        for &scale in &grid.scales {
+        for scale in grid.scales_used() {
             let part = self.augment_scale(demo, scale, grid);
             set.trajectories.extend(part.trajectories);
             set.dropped.extend(part.dropped);
@@ -357,7 +462,23 @@ impl<'a> Augmenter<'a> {
     ) -> AugmentedSet {
         let n = demo.n;
         let len = demo.len();
-        let angles = grid.angles();
+        // With an explicit list: the angles requested at this scale (and 0, the start).
+        let wanted: Option<Vec<Condition>> = grid.conditions.as_ref().map(|_| {
+            grid.conditions()
+                .into_iter()
+                .filter(|c| c.scale == scale)
+                .collect()
+        });
+        let angles = match &wanted {
+            Some(w) => {
+                let mut a: Vec<f64> = w.iter().map(|c| c.theta).collect();
+                a.push(0.0);
+                a.sort_by(f64::total_cmp);
+                a.dedup();
+                a
+            }
+            None => grid.angles(),
+        };
         let zero = angles
             .iter()
             .position(|&a| a == 0.0)
@@ -378,16 +499,18 @@ impl<'a> Augmenter<'a> {
                 if scale == 1.0 {
                     qs.copy_from_slice(q);
                     vs.copy_from_slice(v);
-                } else if let Err(e) = self.scaling.act_with_differential(
-                    &[scale.ln()],
-                    q,
-                    v,
-                    &mut qs,
-                    &mut vs,
-                    &mut lws,
-                ) {
-                    failed.iter_mut().for_each(|f| *f = f.or(Some(reason(&e))));
-                    break;
+                } else {
+                    let r = match &self.scaling {
+                        Some(sc) => sc
+                            .act_with_differential(&[scale.ln()], q, v, &mut qs, &mut vs, &mut lws)
+                            .map(|_| ())
+                            .map_err(|e| reason(&e)),
+                        None => Err(DropReason::Integration),
+                    };
+                    if let Err(r) = r {
+                        failed.iter_mut().for_each(|f| *f = f.or(Some(r)));
+                        break;
+                    }
                 }
                 q_out[zero].extend_from_slice(&qs);
                 v_out[zero].extend_from_slice(&vs);
@@ -441,13 +564,22 @@ impl<'a> Augmenter<'a> {
                 }
             }
             for (ai, &theta) in angles.iter().enumerate() {
-                let sigmas: &[i8] = if grid.reflection { &[1, -1] } else { &[1] };
+                let sigmas: &[i8] = if grid.reflection || wanted.is_some() {
+                    &[1, -1]
+                } else {
+                    &[1]
+                };
                 for &sigma in sigmas {
                     let condition = Condition {
                         theta,
                         scale,
                         reflection: sigma,
                     };
+                    if wanted.as_ref().is_some_and(|w| {
+                        !w.iter().any(|c| c.theta == theta && c.reflection == sigma)
+                    }) {
+                        continue;
+                    }
                     if let Some(r) = failed[ai] {
                         set.dropped.push((demo.demo, condition, r));
                         continue;
@@ -462,9 +594,19 @@ impl<'a> Augmenter<'a> {
                             qd[i * n..(i + 1) * n].copy_from_slice(&tmp);
                         }
                     }
-                    if (0..len).any(|i| !self.kin.within_limits(&q[i * n..(i + 1) * n])) {
+                    let limits = self.kin.limits();
+                    let outside = (0..len).find_map(|i| {
+                        let qi = &q[i * n..(i + 1) * n];
+                        (!self.kin.within_limits(qi)).then(|| {
+                            qi.iter()
+                                .zip(limits)
+                                .position(|(v, l)| !l.contains(*v))
+                                .unwrap_or(0)
+                        })
+                    });
+                    if let Some(joint) = outside {
                         set.dropped
-                            .push((demo.demo, condition, DropReason::JointLimits));
+                            .push((demo.demo, condition, DropReason::JointLimits { joint }));
                         continue;
                     }
                     let mut x = Vec::with_capacity(len * demo.m);
@@ -507,7 +649,7 @@ pub fn letter_augmenter<'a>(
     Augmenter::new(
         kin,
         LiftedAction::new(kin, rot, flow)?,
-        LiftedAction::new(kin, sc, flow)?,
+        sc.map(|sc| LiftedAction::new(kin, sc, flow)).transpose()?,
         rho,
     )
 }
@@ -534,6 +676,8 @@ pub fn nominal_trajectories(
             rotation_step_deg: (deg > 1e-9).then_some(deg),
             scales: vec![c.scale],
             reflection: c.reflection == -1,
+            max_rotation_deg: Some(deg),
+            conditions: None,
         };
         grid.validate()?;
         let set = augmenter.augment_scale(demo, c.scale, &grid);

@@ -13,7 +13,10 @@
 //!    forward difference over `dt`.
 //!
 //! Demonstration `k` of every arm's letter forms dual-arm demonstration `k`. Everything is
-//! configuration (`[letters]`), so other letters, placements and robots use the same path.
+//! configuration (`[letters]`), so other letters, placements and robots use the same path:
+//! on `xyz` chains (RB-Y1, Sec. VI-B) the letter is drawn in a plane `centre + a u + b v`,
+//! and an arm may instead follow synthetic minimum-jerk reaches (the pan-grasping task) or
+//! hold its rest posture.
 
 use std::path::{Path, PathBuf};
 
@@ -23,18 +26,102 @@ use super::lasa::LetterSet;
 use super::DataError;
 use crate::kinematics::{DampedPinv, Kinematics, Metric};
 
-/// One arm's letter: which chain draws which LASA file from which rest posture.
+/// One arm's demonstrations: a LASA letter placed in the task space, synthetic reaching
+/// motions, or neither (the arm holds its rest posture).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArmLetter {
     /// Chain name (from `[[robot.chains]]`).
     pub chain: String,
     /// LASA file (`.csv` or `.mat`), relative to the config file's directory.
-    pub letter: PathBuf,
+    #[serde(default)]
+    pub letter: Option<PathBuf>,
+    /// Synthetic reaching demonstrations (one per entry), instead of a letter.
+    #[serde(default)]
+    pub reach: Vec<Reach>,
     /// Rest posture of this chain's joints (rad).
     pub rest: Vec<f64>,
-    /// Offset `o` subtracted from `f(q0)` to place the letter (task units).
-    pub offset: Vec<f64>,
+    /// Offset `o`: the letter box's centre is placed at `f(q0) − o` (task units).
+    #[serde(default)]
+    pub offset: Option<Vec<f64>>,
+    /// The letter box's centre in the chain's task frame (task units), instead of `offset`.
+    #[serde(default)]
+    pub center: Option<Vec<f64>>,
+    /// In-plane unit axes `(u, v)` of the drawing plane for `xyz` chains (task frame): the
+    /// letter point `(a, b)` goes to `centre + a u + b v`. Planar chains use `x, y`.
+    #[serde(default)]
+    pub plane: Option<[[f64; 3]; 2]>,
+}
+
+/// A synthetic reaching motion in the chain's task frame: minimum-jerk segments from
+/// `f(q0)` through the `via` points to `goal`, timed in proportion to segment length.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reach {
+    /// Final position (task units, task frame).
+    pub goal: Vec<f64>,
+    /// Intermediate positions passed through at rest (task units).
+    #[serde(default)]
+    pub via: Vec<Vec<f64>>,
+    /// Duration of the motion (s).
+    pub duration_s: f64,
+}
+
+impl Reach {
+    /// The sampled path (`duration_s / dt + 1` points) starting at `start`.
+    fn sample(&self, start: &[f64], dt: f64) -> Result<Vec<Vec<f64>>, String> {
+        let d = start.len();
+        let mut pts: Vec<&[f64]> = vec![start];
+        pts.extend(self.via.iter().map(|v| v.as_slice()));
+        pts.push(&self.goal);
+        if pts
+            .iter()
+            .any(|p| p.len() != d || p.iter().any(|v| !v.is_finite()))
+        {
+            return Err(format!("reach points must be finite and {d}-dimensional"));
+        }
+        if !(self.duration_s.is_finite() && self.duration_s > 0.0) {
+            return Err(format!(
+                "reach duration_s {} must be positive",
+                self.duration_s
+            ));
+        }
+        let dist = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y) * (x - y))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let lens: Vec<f64> = pts.windows(2).map(|w| dist(w[0], w[1])).collect();
+        let total: f64 = lens.iter().sum();
+        if total <= 0.0 {
+            return Err("reach has zero length".into());
+        }
+        let samples = (self.duration_s / dt).round() as usize + 1;
+        let mut out = Vec::with_capacity(samples);
+        for i in 0..samples {
+            // Arc length reached at time t, then the segment and its min-jerk phase.
+            let t = i as f64 / (samples - 1) as f64 * total;
+            let (mut k, mut acc) = (0, 0.0);
+            while k + 1 < lens.len() && acc + lens[k] < t {
+                acc += lens[k];
+                k += 1;
+            }
+            let tau = if lens[k] > 0.0 {
+                ((t - acc) / lens[k]).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            let s = tau * tau * tau * (10.0 - 15.0 * tau + 6.0 * tau * tau);
+            out.push(
+                (0..d)
+                    .map(|c| pts[k][c] + s * (pts[k + 1][c] - pts[k][c]))
+                    .collect(),
+            );
+        }
+        Ok(out)
+    }
 }
 
 fn d_range() -> f64 {
@@ -80,6 +167,10 @@ pub struct LetterTaskConfig {
     /// 1-based demonstration numbers used for testing.
     #[serde(default = "d_test")]
     pub test: Vec<usize>,
+    /// Damped-least-squares iterations from the rest posture towards the first target
+    /// before tracking starts (0 in the paper's protocol).
+    #[serde(default)]
+    pub settle_iterations: usize,
 }
 
 /// A joint-space demonstration with its nominal task-space path.
@@ -154,6 +245,107 @@ fn invalid(what: impl Into<String>) -> DataError {
 }
 
 impl LetterTaskConfig {
+    /// One arm's task paths (one per demonstration, samples of `d` coordinates) before the
+    /// sample drops: the placed letter, the sampled reaches, or none.
+    fn arm_paths(
+        &self,
+        arm: &ArmLetter,
+        d: usize,
+        p0: &[f64],
+        base_dir: &Path,
+    ) -> Result<Vec<Vec<Vec<f64>>>, DataError> {
+        let name = &arm.chain;
+        if !arm.reach.is_empty() {
+            if arm.letter.is_some() {
+                return Err(invalid(format!(
+                    "[letters] arm `{name}`: give either `letter` or `reach`, not both"
+                )));
+            }
+            return arm
+                .reach
+                .iter()
+                .map(|r| r.sample(p0, self.dt))
+                .collect::<Result<_, _>>()
+                .map_err(|e| invalid(format!("[letters] arm `{name}`: {e}")));
+        }
+        let Some(letter) = &arm.letter else {
+            return Ok(Vec::new());
+        };
+        // Centre of the letter box and in-plane axes.
+        let centre: Vec<f64> = match (&arm.center, &arm.offset) {
+            (Some(c), None) => c.clone(),
+            (None, Some(o)) if o.len() == d => p0.iter().zip(o).map(|(p, o)| p - o).collect(),
+            (None, Some(o)) => {
+                return Err(invalid(format!(
+                    "[letters] arm `{name}`: offset has {} values, the task {d}",
+                    o.len()
+                )))
+            }
+            _ => {
+                return Err(invalid(format!(
+                    "[letters] arm `{name}`: give exactly one of `offset` and `center`"
+                )))
+            }
+        };
+        let axes: [Vec<f64>; 2] = match (d, &arm.plane) {
+            (2, None) => [vec![1.0, 0.0], vec![0.0, 1.0]],
+            (3, Some([u, v])) => [u.to_vec(), v.to_vec()],
+            _ => {
+                return Err(invalid(format!(
+                    "[letters] arm `{name}`: a letter needs an xy chain, or an xyz chain \
+                     with `plane = [u, v]`"
+                )))
+            }
+        };
+        if centre.len() != d
+            || centre
+                .iter()
+                .chain(&axes[0])
+                .chain(&axes[1])
+                .any(|v| !v.is_finite())
+        {
+            return Err(invalid(format!(
+                "[letters] arm `{name}`: centre/offset/plane must be finite and {d}-dimensional"
+            )));
+        }
+        let path = if letter.is_absolute() {
+            letter.clone()
+        } else {
+            base_dir.join(letter)
+        };
+        let set = LetterSet::load(&path)?;
+        // Joint min/max per coordinate over all demonstrations.
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for demo in &set.demos {
+            for p in &demo.pos {
+                for k in 0..2 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+        if (0..2).any(|k| hi[k] <= lo[k] || hi[k].is_nan() || lo[k].is_nan()) {
+            return Err(invalid(format!("{}: letter has no extent", path.display())));
+        }
+        let r = self.half_range;
+        Ok(set
+            .demos
+            .iter()
+            .map(|demo| {
+                demo.pos
+                    .iter()
+                    .map(|p| {
+                        let a = -r + 2.0 * r * (p[0] - lo[0]) / (hi[0] - lo[0]);
+                        let b = -r + 2.0 * r * (p[1] - lo[1]) / (hi[1] - lo[1]);
+                        (0..d)
+                            .map(|c| centre[c] + a * axes[0][c] + b * axes[1][c])
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect())
+    }
+
     /// Loads the letters (paths relative to `base_dir`) and tracks them with `kin`.
     pub fn build(&self, kin: &Kinematics, base_dir: &Path) -> Result<LetterDemos, DataError> {
         let chains = kin.chains();
@@ -178,6 +370,8 @@ impl LetterTaskConfig {
         let mut rest = vec![0.0; n];
         let mut targets: Vec<Vec<Vec<f64>>> = Vec::new(); // [demo][sample][m]
         let mut kws = kin.workspace();
+        let mut counts: Option<usize> = None;
+        let mut rest_x: Vec<(usize, Vec<f64>)> = Vec::new();
         for (ci, (arm, chain)) in self.arms.iter().zip(chains).enumerate() {
             if arm.chain != chain.name {
                 return Err(invalid(format!(
@@ -186,71 +380,77 @@ impl LetterTaskConfig {
                 )));
             }
             let d = chain.task.dim();
-            if d != 2 || arm.offset.len() != 2 || arm.rest.len() != chain.dof() {
+            if arm.rest.len() != chain.dof() {
                 return Err(invalid(format!(
-                    "[letters] arm `{}`: needs a planar (xy) chain, a 2-D offset and {} rest values",
+                    "[letters] arm `{}`: needs {} rest values, got {}",
                     arm.chain,
-                    chain.dof()
+                    chain.dof(),
+                    arm.rest.len()
                 )));
             }
-            if arm.rest.iter().chain(&arm.offset).any(|v| !v.is_finite()) {
+            if arm.rest.iter().any(|v| !v.is_finite()) {
                 return Err(invalid(format!(
-                    "[letters] arm `{}`: rest/offset must be finite",
+                    "[letters] arm `{}`: rest must be finite",
                     arm.chain
                 )));
             }
             rest[kin.q_offset(ci)..kin.q_offset(ci) + chain.dof()].copy_from_slice(&arm.rest);
-            let path = if arm.letter.is_absolute() {
-                arm.letter.clone()
-            } else {
-                base_dir.join(&arm.letter)
-            };
-            let set = LetterSet::load(&path)?;
-            // Joint min/max per coordinate over all demonstrations.
-            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-            for demo in &set.demos {
-                for p in &demo.pos {
-                    for k in 0..2 {
-                        lo[k] = lo[k].min(p[k]);
-                        hi[k] = hi[k].max(p[k]);
-                    }
-                }
-            }
-            if (0..2).any(|k| hi[k] <= lo[k] || hi[k].is_nan() || lo[k].is_nan()) {
-                return Err(invalid(format!("{}: letter has no extent", path.display())));
-            }
-            let q0 = &arm.rest;
             let mut ws = chain.workspace();
-            let p0 = chain.position(q0, &mut ws);
-            let shift = [p0.x - arm.offset[0], p0.y - arm.offset[1]];
+            let p0: Vec<f64> = {
+                let p = chain.position(&arm.rest, &mut ws);
+                [p.x, p.y, p.z][..d].to_vec()
+            };
+            let xo = kin.x_offset(ci);
+            let arm_paths = self.arm_paths(arm, d, &p0, base_dir)?;
             let [ds, de, _, _] = self.drop;
-            for (k, demo) in set.demos.iter().enumerate() {
-                if demo.pos.len() <= ds + de + 1 {
+            // Every arm with demonstrations must agree on their number and lengths.
+            if !arm_paths.is_empty() {
+                if counts.is_some_and(|c| c != arm_paths.len()) {
                     return Err(invalid(format!(
-                        "{}: demo {} too short",
-                        path.display(),
+                        "[letters] arm `{}` has {} demonstrations, another arm {}",
+                        arm.chain,
+                        arm_paths.len(),
+                        counts.unwrap_or(0)
+                    )));
+                }
+                counts = Some(arm_paths.len());
+            }
+            for (k, path) in arm_paths.iter().enumerate() {
+                if path.len() <= ds + de + 1 {
+                    return Err(invalid(format!(
+                        "[letters] arm `{}`: demo {} too short",
+                        arm.chain,
                         k + 1
                     )));
                 }
                 if targets.len() <= k {
                     targets.push(Vec::new());
                 }
-                let kept = &demo.pos[ds..demo.pos.len() - de];
+                let kept = &path[ds..path.len() - de];
                 let t = &mut targets[k];
                 if t.is_empty() {
-                    t.resize(kept.len(), vec![0.0; m]);
+                    t.resize(kept.len(), vec![f64::NAN; m]);
                 } else if t.len() != kept.len() {
                     return Err(invalid(format!(
-                        "demo {}: arms' letters have different lengths",
+                        "demo {}: arms' demonstrations have different lengths",
                         k + 1
                     )));
                 }
-                let xo = kin.x_offset(ci);
                 for (s, p) in kept.iter().enumerate() {
-                    for c in 0..2 {
-                        let r = self.half_range;
-                        let v = -r + 2.0 * r * (p[c] - lo[c]) / (hi[c] - lo[c]);
-                        t[s][xo + c] = v + shift[c];
+                    t[s][xo..xo + d].copy_from_slice(p);
+                }
+            }
+            rest_x.push((xo, p0));
+        }
+        if targets.is_empty() {
+            return Err(invalid("[letters] no arm has a letter or reach"));
+        }
+        // Arms without demonstrations hold their rest position.
+        for t in &mut targets {
+            for sample in t.iter_mut() {
+                for (xo, p0) in &rest_x {
+                    if sample[*xo].is_nan() {
+                        sample[*xo..*xo + p0.len()].copy_from_slice(p0);
                     }
                 }
             }
@@ -276,6 +476,17 @@ impl LetterTaskConfig {
         let mut dq = vec![0.0; n];
         for (k, t) in targets.iter().enumerate() {
             let mut q = rest.clone();
+            for _ in 0..self.settle_iterations {
+                kin.jacobian(&q, &mut kws);
+                for r in 0..m {
+                    e[r] = t[0][r] - kws.x[r];
+                }
+                dls.factor(&kws.jac, &mut pws);
+                dls.solve(&mut pws, &e, &mut dq);
+                for (a, b) in q.iter_mut().zip(&dq) {
+                    *a += b;
+                }
+            }
             let mut qs: Vec<f64> = Vec::with_capacity(t.len() * n);
             let mut errs = Vec::with_capacity(t.len());
             for target in t {

@@ -18,12 +18,21 @@ use crate::policy::Policy;
 use crate::symmetry::compose::Condition;
 
 /// `[eval]` settings.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EvalConfig {
     /// Task error above which a rollout counts as diverged (task units).
     #[serde(default = "d_div")]
     pub divergence_threshold: f64,
+    /// Plot projection: the unit vectors `(u, v)` of the figure's horizontal and vertical
+    /// axes in each arm's task frame (`xy` arms use the first two components); absent →
+    /// `x` right, `y` up.
+    #[serde(default)]
+    pub view: Option<[[f64; 3]; 2]>,
+    /// Policies evaluated when `crossym eval` gets no `--policy`: label → weights file
+    /// (relative to the config file's directory).
+    #[serde(default)]
+    pub policies: std::collections::BTreeMap<String, std::path::PathBuf>,
 }
 
 fn d_div() -> f64 {
@@ -34,6 +43,8 @@ impl Default for EvalConfig {
     fn default() -> Self {
         Self {
             divergence_threshold: d_div(),
+            view: None,
+            policies: Default::default(),
         }
     }
 }
@@ -97,6 +108,38 @@ pub fn score(
     }
 }
 
+/// The task-space path `f(q̂_k)` of the policy rolled out from the trajectory's first
+/// configuration for as many steps as the trajectory has (row-major `len × m`); a rollout
+/// that becomes non-finite stops there (the rest is NaN).
+pub fn rollout_path(
+    policy: &Policy,
+    kin: &Kinematics,
+    traj: &JointTrajectory,
+    s: &Condition,
+) -> Vec<f64> {
+    let n = traj.n;
+    let mut ws = policy.workspace();
+    let mut kws = kin.workspace();
+    let mut q = traj.q(0).to_vec();
+    let mut v = vec![0.0; n];
+    let mut out = Vec::with_capacity(traj.x.len());
+    for k in 0..traj.len() {
+        let x = kin.forward(&q, &mut kws);
+        if x.iter().any(|c| !c.is_finite()) {
+            out.resize(traj.x.len(), f64::NAN);
+            break;
+        }
+        out.extend(x.iter());
+        if k + 1 < traj.len() {
+            policy.velocity(&q, s, &mut v, &mut ws);
+            for j in 0..n {
+                q[j] += traj.dt * v[j];
+            }
+        }
+    }
+    out
+}
+
 /// Mean ± std of RMSE over a test set, with the divergence count.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Cell {
@@ -121,17 +164,24 @@ pub fn evaluate(
         .par_iter()
         .map(|(t, s)| score(policy, kin, t, s, cfg))
         .collect();
-    let count = scores.len();
-    let mean = scores.iter().map(|s| s.rmse).sum::<f64>() / count.max(1) as f64;
-    let var = scores
-        .iter()
-        .map(|s| (s.rmse - mean) * (s.rmse - mean))
-        .sum::<f64>()
-        / count.max(1) as f64;
-    Cell {
-        mean,
-        std: var.sqrt(),
-        count,
-        diverged: scores.iter().filter(|s| s.diverged).count(),
+    Cell::from_scores(&scores)
+}
+
+impl Cell {
+    /// Mean ± std (population) of the scores' RMSE, with the divergence count.
+    pub fn from_scores(scores: &[RolloutScore]) -> Self {
+        let count = scores.len();
+        let mean = scores.iter().map(|s| s.rmse).sum::<f64>() / count.max(1) as f64;
+        let var = scores
+            .iter()
+            .map(|s| (s.rmse - mean) * (s.rmse - mean))
+            .sum::<f64>()
+            / count.max(1) as f64;
+        Cell {
+            mean,
+            std: var.sqrt(),
+            count,
+            diverged: scores.iter().filter(|s| s.diverged).count(),
+        }
     }
 }

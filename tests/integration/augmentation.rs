@@ -86,14 +86,16 @@ fn paper_grids_give_780_train_and_600_test_conditions() {
     assert!(GroupGrid {
         rotation_step_deg: Some(0.0),
         scales: vec![1.0],
-        reflection: false
+        reflection: false,
+        ..GroupGrid::identity()
     }
     .validate()
     .is_err());
     assert!(GroupGrid {
         rotation_step_deg: None,
         scales: vec![-1.0],
-        reflection: false
+        reflection: false,
+        ..GroupGrid::identity()
     }
     .validate()
     .is_err());
@@ -133,7 +135,7 @@ fn augmented_trajectories_draw_the_transformed_letters() {
     let aug = Augmenter::new(
         kin,
         LiftedAction::new(kin, rot, flow).unwrap(),
-        LiftedAction::new(kin, sc, flow).unwrap(),
+        Some(LiftedAction::new(kin, sc.unwrap(), flow).unwrap()),
         rho,
     )
     .unwrap();
@@ -141,6 +143,7 @@ fn augmented_trajectories_draw_the_transformed_letters() {
         rotation_step_deg: Some(120.0),
         scales: vec![0.7, 1.0],
         reflection: true,
+        ..GroupGrid::identity()
     };
     let set = aug.augment(&[&demo], &grid, &|| {});
     assert_eq!(set.trajectories.len() + set.dropped.len(), 3 * 2 * 2);
@@ -203,7 +206,7 @@ fn broken_letter_configs_are_refused_with_reasons() {
     let cfg = letters_config();
     let robot = cfg.load_robot().unwrap();
     let mut bad = cfg.letters.clone().unwrap();
-    bad.arms[0].letter = "../data/lasa/missing.mat".into();
+    bad.arms[0].letter = Some("../data/lasa/missing.mat".into());
     let e = bad.build(&robot.kinematics, &cfg.base_dir).unwrap_err();
     assert!(e.to_string().contains("missing.mat"), "{e}");
     let mut bad = cfg.letters.clone().unwrap();

@@ -79,3 +79,25 @@ pub fn random_q(rng: &mut StdRng, limits: &[crossym::kinematics::JointLimits]) -
 pub fn path(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
+
+/// Euclidean distance of two points.
+pub fn dist(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// A shipped task config, its robot and its tracked demonstrations (`[letters]`).
+pub fn task(name: &str) -> (Config, LoadedRobot, crossym::data::letters::LetterDemos) {
+    let cfg = load_config(name);
+    let robot = cfg.load_robot().expect("robot loads");
+    let demos = cfg
+        .letters
+        .as_ref()
+        .expect("[letters]")
+        .build(&robot.kinematics, &cfg.base_dir)
+        .expect("demonstrations build");
+    (cfg, robot, demos)
+}

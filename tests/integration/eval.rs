@@ -100,6 +100,7 @@ fn runaway_policy_is_counted_as_diverged() {
         &s,
         &EvalConfig {
             divergence_threshold: 1.0,
+            ..EvalConfig::default()
         },
     );
     assert!(sc.diverged && sc.rmse.is_finite(), "{sc:?}");

@@ -12,6 +12,7 @@ mod eval;
 mod kinematics;
 mod lift_compose;
 mod policy;
+mod rby1_tasks;
 mod ros;
 mod safety;
 mod sim;

@@ -62,13 +62,7 @@ fn unit(u: [f64; 3]) -> [f64; 3] {
     [u[0] / n, u[1] / n, u[2] / n]
 }
 
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
-}
+use common::dist;
 
 fn assert_mat(a: &DMatrix<f64>, b: &DMatrix<f64>, tol: f64, what: &str) {
     assert!((a - b).norm() < tol, "{what}: {a} vs {b}");
