@@ -124,13 +124,12 @@ fn bench_latency(_c: &mut Criterion) {
     let _ = core; // the node builds its own core below with trigger = joint_states
     let cfg = Config::from_file(root().join("config/letters.toml")).unwrap();
     let robot = cfg.load_robot().unwrap();
-    let mut node_cfg = cfg.node.clone().unwrap();
+    let mut node_cfg = cfg.node_config();
     node_cfg.trigger = Trigger::JointStates;
     node_cfg.check_stamps = false;
     node_cfg.name = "crossym_latency".into();
-    let policy = Policy::load(root().join("data/policies/pi_mrt_planar.safetensors")).unwrap();
     let names = robot.kinematics.joint_names().to_vec();
-    let core = NodeCore::new(robot.kinematics, policy, node_cfg.safety, node_cfg.clone()).unwrap();
+    let core = NodeCore::from_config(&cfg, node_cfg.clone()).unwrap();
     let settings = DdsSettings {
         domain_id: 77,
         range: DiscoveryRange::Localhost,

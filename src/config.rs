@@ -187,7 +187,17 @@ impl Config {
         }
     }
 
-    /// Loads the robot described by `[robot]` and `[kinematics]`.
+    /// `[node]` (defaults when absent) with its policy path resolved against the config
+    /// file's directory; not yet validated (overrides may follow).
+    pub fn node_config(&self) -> crate::ros::NodeConfig {
+        let mut n = self.node.clone().unwrap_or_default();
+        if let Some(p) = &n.policy {
+            n.policy = Some(self.resolve(p));
+        }
+        n
+    }
+
+    /// Loads the robot of `[robot]` with the `[kinematics]` settings.
     pub fn load_robot(&self) -> Result<LoadedRobot, ConfigError> {
         self.robot
             .load(&self.base_dir, &self.kinematics)

@@ -6,7 +6,6 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use crossym::config::Config;
-use crossym::policy::Policy;
 use crossym::ros::dds::DdsSettings;
 use crossym::ros::{NodeConfig, NodeCore, OutputMode, Trigger};
 use crossym::sim::{MockHardware, MockHwConfig};
@@ -59,11 +58,9 @@ fn parse_trigger(s: &str) -> Result<Trigger, String> {
 
 /// `[node]` of `cfg` with the overrides applied and validated; the policy path resolved.
 pub fn node_config(cfg: &Config, o: &NodeOverrides) -> anyhow::Result<NodeConfig> {
-    let mut n = cfg.node.clone().unwrap_or_default();
+    let mut n = cfg.node_config();
     if let Some(p) = &o.policy {
         n.policy = Some(p.clone());
-    } else if let Some(p) = &n.policy {
-        n.policy = Some(cfg.resolve(p));
     }
     if let Some(v) = &o.name {
         n.name = v.clone();
@@ -94,15 +91,7 @@ pub fn node_config(cfg: &Config, o: &NodeOverrides) -> anyhow::Result<NodeConfig
 pub fn build_core(path: &Path, o: &NodeOverrides) -> anyhow::Result<(Config, NodeCore)> {
     let cfg = Config::from_file(path)?;
     let n = node_config(&cfg, o)?;
-    let policy_path = n.policy.clone().with_context(|| {
-        format!(
-            "{}: no policy: set [node] policy or pass --policy",
-            path.display()
-        )
-    })?;
-    let robot = cfg.load_robot()?;
-    let policy = Policy::load(&policy_path)?;
-    let core = NodeCore::new(robot.kinematics, policy, n.safety, n)?;
+    let core = NodeCore::from_config(&cfg, n)?;
     Ok((cfg, core))
 }
 

@@ -190,6 +190,39 @@ pub enum NodeError {
     },
 }
 
+/// Why a node could not be built from a config file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NodeSetupError {
+    /// The config file or its robot is broken.
+    #[error(transparent)]
+    Config {
+        /// Config error (names the file).
+        #[from]
+        source: crate::config::ConfigError,
+    },
+    /// Neither `[node] policy` nor an override names a policy.
+    #[error("{path}: no policy: set [node] policy or pass --policy")]
+    NoPolicy {
+        /// The config file.
+        path: PathBuf,
+    },
+    /// The policy file could not be loaded.
+    #[error(transparent)]
+    Policy {
+        /// Policy error (names the file).
+        #[from]
+        source: crate::policy::PolicyError,
+    },
+    /// The node settings or the policy do not fit the robot.
+    #[error(transparent)]
+    Node {
+        /// Node error.
+        #[from]
+        source: NodeError,
+    },
+}
+
 /// Why an input message was rejected (fixed size, no allocation).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[non_exhaustive]
@@ -659,6 +692,24 @@ pub struct NodeCore {
 }
 
 impl NodeCore {
+    /// Builds the node of a config file: `cfg`'s robot, the policy `node.policy` (already
+    /// resolved, see [`crate::config::Config::node_config`]) and `node`'s settings.
+    pub fn from_config(
+        cfg: &crate::config::Config,
+        node: NodeConfig,
+    ) -> Result<Self, NodeSetupError> {
+        let policy_path = node
+            .policy
+            .clone()
+            .ok_or_else(|| NodeSetupError::NoPolicy {
+                path: cfg.path.clone(),
+            })?;
+        let robot = cfg.load_robot()?;
+        let policy = Policy::load(&policy_path)?;
+        let safety = node.safety;
+        Ok(Self::new(robot.kinematics, policy, safety, node)?)
+    }
+
     /// Builds the node for `kin`'s controlled joints; the safety filter's `dt` is set to
     /// `cfg.period_s`. The policy must have `kin.dof()` joints (and, if it names them,
     /// the same names in the same order). With `safety.min_ee_distance`, the robot must

@@ -13,7 +13,7 @@ pub mod msgdef;
 pub mod node;
 
 pub use self::core::{
-    Command, InputGate, Inputs, NodeConfig, NodeCore, NodeError, OutputMode, Rejection, StatusCode,
-    StatusSnapshot, TickReport, TopicNames, Trigger,
+    Command, InputGate, Inputs, NodeConfig, NodeCore, NodeError, NodeSetupError, OutputMode,
+    Rejection, StatusCode, StatusSnapshot, TickReport, TopicNames, Trigger,
 };
 pub use msgdef::{ArrayKind, ConstantDef, FieldDef, FieldType, MsgDef, MsgDefError};

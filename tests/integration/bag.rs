@@ -195,10 +195,7 @@ fn independent_tools_read_crossym_bags() {
 
 fn letters() -> (Config, NodeCore) {
     let cfg = Config::from_file(common::root().join("config/letters.toml")).unwrap();
-    let robot = cfg.load_robot().unwrap();
-    let n = cfg.node.clone().unwrap();
-    let policy = Policy::load(cfg.resolve(n.policy.as_ref().unwrap())).unwrap();
-    let core = NodeCore::new(robot.kinematics, policy, n.safety, n).unwrap();
+    let core = NodeCore::from_config(&cfg, cfg.node_config()).unwrap();
     (cfg, core)
 }
 

@@ -474,11 +474,7 @@ fn live_replay_feeds_a_node() {
     let c = got.topic("/crossym/symmetry_condition").unwrap();
     assert_eq!(got.topics[c].count, 2);
     let cfg = Config::from_file(&cfg_s).unwrap();
-    let n = cfg.node.clone().unwrap();
-    let policy = Policy::load(cfg.resolve(n.policy.as_ref().unwrap())).unwrap();
-    let mut core =
-        crossym::ros::NodeCore::new(cfg.load_robot().unwrap().kinematics, policy, n.safety, n)
-            .unwrap();
+    let mut core = crossym::ros::NodeCore::from_config(&cfg, cfg.node_config()).unwrap();
     let topics = crossym::bag::replay::ReplayTopics::for_node(core.config());
     let r = crossym::bag::replay::replay(&got, &mut core, &topics).unwrap();
     assert!(r.commands > 100 && r.unmatched == 0, "{r:?}");
