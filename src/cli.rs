@@ -677,6 +677,11 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
                 .map(|a| (&a.traj, a.condition))
                 .collect();
             let c = crossym::eval::evaluate(policy, kin, &set, &cfg.eval);
+            if c.count == 0 {
+                row.push_str(" – |");
+                let _ = writeln!(csv, "{label},{},,,0,0", g.label());
+                continue;
+            }
             let _ = write!(
                 row,
                 " {:.3} ± {:.3}{} |",

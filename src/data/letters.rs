@@ -65,6 +65,11 @@ pub struct Reach {
     pub via: Vec<Vec<f64>>,
     /// Duration of the motion (s).
     pub duration_s: f64,
+    /// Start posture of this chain's joints for this demonstration (rad); absent → the
+    /// arm's `rest`. Demonstrations from one start must agree, or a policy `π(q, s)`
+    /// cannot tell them apart.
+    #[serde(default)]
+    pub start: Option<Vec<f64>>,
 }
 
 impl Reach {
@@ -250,10 +255,11 @@ impl LetterTaskConfig {
     fn arm_paths(
         &self,
         arm: &ArmLetter,
-        d: usize,
+        chain: &crate::kinematics::Chain,
         p0: &[f64],
         base_dir: &Path,
     ) -> Result<Vec<Vec<Vec<f64>>>, DataError> {
+        let d = p0.len();
         let name = &arm.chain;
         if !arm.reach.is_empty() {
             if arm.letter.is_some() {
@@ -264,7 +270,19 @@ impl LetterTaskConfig {
             return arm
                 .reach
                 .iter()
-                .map(|r| r.sample(p0, self.dt))
+                .map(|r| match &r.start {
+                    None => r.sample(p0, self.dt),
+                    Some(q) if q.len() == chain.dof() && q.iter().all(|v| v.is_finite()) => {
+                        let mut ws = chain.workspace();
+                        let p = chain.position(q, &mut ws);
+                        r.sample(&[p.x, p.y, p.z][..d], self.dt)
+                    }
+                    Some(q) => Err(format!(
+                        "reach start needs {} finite joint values, got {:?}",
+                        chain.dof(),
+                        q
+                    )),
+                })
                 .collect::<Result<_, _>>()
                 .map_err(|e| invalid(format!("[letters] arm `{name}`: {e}")));
         }
@@ -372,6 +390,8 @@ impl LetterTaskConfig {
         let mut kws = kin.workspace();
         let mut counts: Option<usize> = None;
         let mut rest_x: Vec<(usize, Vec<f64>)> = Vec::new();
+        // Per-demonstration start postures: (demo index, first joint, joint values).
+        let mut starts: Vec<(usize, usize, Vec<f64>)> = Vec::new();
         for (ci, (arm, chain)) in self.arms.iter().zip(chains).enumerate() {
             if arm.chain != chain.name {
                 return Err(invalid(format!(
@@ -401,7 +421,12 @@ impl LetterTaskConfig {
                 [p.x, p.y, p.z][..d].to_vec()
             };
             let xo = kin.x_offset(ci);
-            let arm_paths = self.arm_paths(arm, d, &p0, base_dir)?;
+            let arm_paths = self.arm_paths(arm, chain, &p0, base_dir)?;
+            for (k, r) in arm.reach.iter().enumerate() {
+                if let Some(q) = &r.start {
+                    starts.push((k, kin.q_offset(ci), q.clone()));
+                }
+            }
             let [ds, de, _, _] = self.drop;
             // Every arm with demonstrations must agree on their number and lengths.
             if !arm_paths.is_empty() {
@@ -476,6 +501,15 @@ impl LetterTaskConfig {
         let mut dq = vec![0.0; n];
         for (k, t) in targets.iter().enumerate() {
             let mut q = rest.clone();
+            for (_, qo, v) in starts.iter().filter(|s| s.0 == k) {
+                q[*qo..*qo + v.len()].copy_from_slice(v);
+            }
+            if !kin.within_limits(&q) {
+                return Err(invalid(format!(
+                    "demo {}: start posture is outside the joint limits",
+                    k + 1
+                )));
+            }
             for _ in 0..self.settle_iterations {
                 kin.jacobian(&q, &mut kws);
                 for r in 0..m {

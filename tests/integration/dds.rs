@@ -545,3 +545,63 @@ fn standalone_recorder_over_dds() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("geometry_msgs/msg/Twist"));
 }
+
+/// The RB-Y1 experiments as closed loops (issue 7): `crossym demo` on the pan-grasping
+/// and letter configs starts mock-hw and the node (position output, 14 arm joints) over
+/// DDS, publishes conditions, records a bag and replays it; it exits 0 only with no limit
+/// violation, RMSE within 1.5× of the offline rollout and an exact replay.
+fn rby1_demo(config: &str, conditions: &[&str], domain: u16, name: &str) {
+    if common::rby1_urdf().is_none() {
+        return;
+    }
+    let dir = tmp_dir(name);
+    let mut cmd = Command::new(exe());
+    cmd.arg("demo")
+        .arg("--config")
+        .arg(common::root().join("config").join(config))
+        .args(["--duration-s", "1.5", "--no-isolation", "--out"])
+        .arg(&dir)
+        .env("ROS_DOMAIN_ID", domain.to_string());
+    for c in conditions {
+        cmd.arg("--condition").arg(c);
+    }
+    let out = cmd.output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("demo: OK"),
+        "{stdout}\n{}\nnode log:\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        log_tail(&dir.join("node.log"))
+    );
+    // A 3-D path figure, a recorded bag with position commands on the driver's topic.
+    assert!(std::fs::metadata(dir.join("demo.png")).unwrap().len() > 1000);
+    let bag = crossym::bag::Bag::open(&dir.join("bag")).unwrap();
+    let cmd_topic = bag.topic("/position_controller/commands").unwrap();
+    assert!(bag.topics[cmd_topic].count > 100);
+    let summary: MockHwSummary =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("mock_hw_summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary.violation_count, 0);
+    assert_eq!(summary.last_command.len(), 14);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn rby1_pan_grasping_closed_loop() {
+    rby1_demo(
+        "rby1-pan.toml",
+        &["0.2617993877991494:1:1", "-0.5235987755982988:1:-1"],
+        66,
+        "rby1-pan",
+    );
+}
+
+#[test]
+fn rby1_letters_closed_loop() {
+    rby1_demo(
+        "rby1-letters.toml",
+        &["1.5707963267948966:0.5:1", "0.7853981633974483:0.9:-1"],
+        67,
+        "rby1-letters",
+    );
+}

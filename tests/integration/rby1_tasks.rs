@@ -207,6 +207,7 @@ fn broken_rby1_task_configs_are_refused_with_reasons() {
         goal: vec![0.5, -0.2, -0.2],
         via: vec![],
         duration_s: 1.0,
+        start: None,
     }];
     let e = reach_and_letter
         .build(kin, &cfg.base_dir)
@@ -219,6 +220,7 @@ fn broken_rby1_task_configs_are_refused_with_reasons() {
         goal: vec![0.5, f64::NAN, -0.2],
         via: vec![],
         duration_s: 1.0,
+        start: None,
     }];
     let e = bad_reach.build(kin, &cfg.base_dir).unwrap_err().to_string();
     assert!(e.contains("finite"), "{e}");
