@@ -732,16 +732,32 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
                 c.diverged
             );
         }
-        // Figure: one panel per test set, up to 6 of its conditions on the first test demo.
+        // Figure: one panel per test set, up to 6 conditions on the first test demo, taken
+        // from what the set adds to the previous one (rotations, then scalings, then the
+        // reflection).
         let panels: Vec<PathPanel> = SubGroup::ALL
             .iter()
-            .map(|&g| {
-                let sel: Vec<_> = p
-                    .test
-                    .subset(g)
-                    .into_iter()
-                    .filter(|a| Some(a.traj.demo) == first_demo)
-                    .collect();
+            .enumerate()
+            .map(|(gi, &g)| {
+                let on_demo = |g: SubGroup| -> Vec<&crossym::data::augmentation::Augmented> {
+                    p.test
+                        .subset(g)
+                        .into_iter()
+                        .filter(|a| Some(a.traj.demo) == first_demo)
+                        .collect()
+                };
+                let all = on_demo(g);
+                let new: Vec<_> = match gi.checked_sub(1) {
+                    Some(prev) => {
+                        let prev = SubGroup::ALL[prev];
+                        all.iter()
+                            .copied()
+                            .filter(|a| !prev.contains(&a.condition))
+                            .collect()
+                    }
+                    None => all.clone(),
+                };
+                let sel = if new.is_empty() { all } else { new };
                 let stride = sel.len().div_ceil(6).max(1);
                 PathPanel {
                     m: kin.task_dim(),
@@ -770,8 +786,9 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
         "\nRMSE in task units between the policy rollout and the nominal trajectory from the \
          same initial configuration, both arms stacked, mean ± std over the test trajectories \
          (diverged rollouts included and counted). Figures `trajectories_<policy>.png`: one \
-         panel per test set (Original, G_R, G_RT, G_MRT), up to 6 of its conditions on the \
-         first test demonstration; grey nominal, colour rollout (blue left arm, red right).\n",
+         panel per test set (Original, G_R, G_RT, G_MRT), up to 6 of the conditions it adds \
+         to the previous set (rotations, scalings, reflection) on the first test \
+         demonstration; grey nominal, colour rollout (blue left arm, red right).\n",
     );
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     std::fs::write(out.join("table2.md"), &md)?;
