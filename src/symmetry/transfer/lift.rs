@@ -153,7 +153,7 @@ impl<'a> LiftedAction<'a> {
             kin,
             action,
             settings,
-            fd_step: 1e-6,
+            fd_step: 1e-8,
         })
     }
 
@@ -221,10 +221,16 @@ impl<'a> LiftedAction<'a> {
     ) -> Result<FlowStatus, LiftError> {
         let n = self.kin.dof();
         let field = LiftedField::new(self.kin, self.action.generator_field(xi));
-        let var = VariationalField::new(&field, self.fd_step);
+        // Forward-difference directional derivatives and step control on the positions:
+        // one extra field evaluation per stage (the tangent follows the positions' steps).
+        let var = VariationalField::forward(&field, self.fd_step);
         ws.y0[..n].copy_from_slice(q);
         ws.y0[n..].copy_from_slice(qdot);
-        let st = integrate(&var, 1.0, &ws.y0, &mut ws.y1, &self.settings, &mut ws.var);
+        let settings = FlowSettings {
+            error_dims: Some(n),
+            ..self.settings
+        };
+        let st = integrate(&var, 1.0, &ws.y0, &mut ws.y1, &settings, &mut ws.var);
         let st = self.outcome(st)?;
         q_out.copy_from_slice(&ws.y1[..n]);
         qdot_out.copy_from_slice(&ws.y1[n..]);
