@@ -662,8 +662,15 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
     let mut md =
         String::from("| Policy | Original | G_R | G_RT | G_MRT |\n|---|---|---|---|---|\n");
     let mut csv = String::from("policy,test_set,mean_rmse,std_rmse,count,diverged\n");
-    let mut per_cond =
-        String::from("policy,theta_deg,scale,reflection,mean_rmse,std_rmse,count,diverged\n");
+    let chain_cols: Vec<String> = kin
+        .chains()
+        .iter()
+        .map(|c| format!("mean_rmse_{}", c.name))
+        .collect();
+    let mut per_cond = format!(
+        "policy,theta_deg,scale,reflection,mean_rmse,std_rmse,count,diverged,{}\n",
+        chain_cols.join(",")
+    );
     let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
     let view = cfg.eval.view.unwrap_or(XY_VIEW);
     let first_demo = p.demos.test.first().copied();
@@ -720,16 +727,29 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
                 continue;
             }
             let c = crossym::eval::evaluate(policy, kin, &set, &cfg.eval);
+            // Per-arm RMSE, mean over the condition's test trajectories.
+            let mut arms = vec![0.0; kin.chains().len()];
+            for (t, s) in &set {
+                let path = crossym::eval::rollout_path(policy, kin, t, s);
+                for (a, r) in arms
+                    .iter_mut()
+                    .zip(crossym::eval::chain_rmse(kin, t, &path))
+                {
+                    *a += r / set.len() as f64;
+                }
+            }
+            let arms: Vec<String> = arms.iter().map(|a| a.to_string()).collect();
             let _ = writeln!(
                 per_cond,
-                "{label},{},{},{},{},{},{},{}",
+                "{label},{},{},{},{},{},{},{},{}",
                 cond.theta.to_degrees(),
                 cond.scale,
                 cond.reflection,
                 c.mean,
                 c.std,
                 c.count,
-                c.diverged
+                c.diverged,
+                arms.join(",")
             );
         }
         // Figure: one panel per test set, up to 6 conditions on the first test demo, taken

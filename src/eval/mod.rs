@@ -140,6 +140,31 @@ pub fn rollout_path(
     out
 }
 
+/// Per-chain task-space RMSE of an executed path against the trajectory's nominal one
+/// (`√(mean_k ‖x̂_k,c − x_k,c‖²)` for each chain `c`, task units); non-finite samples
+/// count with the last finite error.
+pub fn chain_rmse(kin: &Kinematics, traj: &JointTrajectory, executed: &[f64]) -> Vec<f64> {
+    let m = traj.m;
+    kin.chains()
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| {
+            let (o, d) = (kin.x_offset(ci), c.task.dim());
+            let (mut sum, mut last) = (0.0, 0.0);
+            for k in 0..traj.len() {
+                let e = (o..o + d)
+                    .map(|i| (executed[k * m + i] - traj.x[k * m + i]).powi(2))
+                    .sum::<f64>();
+                if e.is_finite() {
+                    last = e;
+                }
+                sum += last;
+            }
+            (sum / traj.len().max(1) as f64).sqrt()
+        })
+        .collect()
+}
+
 /// Mean ± std of RMSE over a test set, with the divergence count.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Cell {

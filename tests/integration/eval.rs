@@ -105,3 +105,23 @@ fn runaway_policy_is_counted_as_diverged() {
     );
     assert!(sc.diverged && sc.rmse.is_finite(), "{sc:?}");
 }
+
+#[test]
+fn per_arm_rmse_splits_the_stacked_error() {
+    let (_, robot, demos) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let traj = &demos.demos[0];
+    // The right arm's path shifted by (0.3, 0.4): per-arm RMSE 0 and 0.5, stacked 0.5.
+    let mut path = traj.x.clone();
+    for k in 0..traj.len() {
+        path[k * traj.m + 2] += 0.3;
+        path[k * traj.m + 3] += 0.4;
+    }
+    let r = crossym::eval::chain_rmse(kin, traj, &path);
+    assert_eq!(r.len(), 2);
+    assert!(r[0].abs() < 1e-12 && (r[1] - 0.5).abs() < 1e-12, "{r:?}");
+    // A rollout that turns non-finite keeps its last finite error.
+    path[(traj.len() - 1) * traj.m + 2] = f64::NAN;
+    let r = crossym::eval::chain_rmse(kin, traj, &path);
+    assert!((r[1] - 0.5).abs() < 1e-12, "{r:?}");
+}
