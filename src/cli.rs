@@ -410,16 +410,24 @@ struct Pipeline {
     test_secs: f64,
 }
 
+/// The tracked demonstrations of `[letters]` (an error naming the file when it is absent).
+fn letter_demos(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+) -> anyhow::Result<crossym::data::letters::LetterDemos> {
+    let letters = cfg
+        .letters
+        .as_ref()
+        .with_context(|| format!("{}: no [letters] section", cfg.path.display()))?;
+    Ok(letters.build(kin, &cfg.base_dir)?)
+}
+
 fn pipeline(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,
     splits: (bool, bool),
 ) -> anyhow::Result<Pipeline> {
     use crossym::data::augmentation::{letter_augmenter, AugmentedSet};
-    let letters = cfg
-        .letters
-        .as_ref()
-        .with_context(|| format!("{}: no [letters] section", cfg.path.display()))?;
     let aug = cfg
         .augmentation
         .as_ref()
@@ -432,7 +440,7 @@ fn pipeline(
         .validate()
         .map_err(anyhow::Error::msg)
         .context("[augmentation] test")?;
-    let demos = letters.build(kin, &cfg.base_dir)?;
+    let demos = letter_demos(cfg, kin)?;
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
     let augmenter =
         letter_augmenter(kin, &built, &cfg.composition.order).map_err(anyhow::Error::msg)?;

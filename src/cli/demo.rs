@@ -180,11 +180,7 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     let hw_cfg = cfg.mock_hw.clone().unwrap_or_default();
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
-    let letters = cfg
-        .letters
-        .as_ref()
-        .with_context(|| format!("{}: no [letters] section", a.config.display()))?;
-    let demos = letters.build(kin, &cfg.base_dir)?;
+    let demos = super::letter_demos(&cfg, kin)?;
     let which = a
         .demo
         .or_else(|| demos.test.first().copied())

@@ -45,11 +45,7 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
     }
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
-    let letters = cfg
-        .letters
-        .as_ref()
-        .with_context(|| format!("{}: no [letters] section", a.config.display()))?;
-    let demos = letters.build(kin, &cfg.base_dir)?;
+    let demos = super::letter_demos(&cfg, kin)?;
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
     let augmenter =
         letter_augmenter(kin, &built, &cfg.composition.order).map_err(anyhow::Error::msg)?;
