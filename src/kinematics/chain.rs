@@ -14,6 +14,11 @@
 //! *Robotics: Modelling, Planning and Control*, eq. 3.30). This is `J(q) = df|_q`
 //! of the paper (Sec. II-C).
 //!
+//! Each joint frame is rotated by a constant `R_i` with `R_i e_z = a_i` (folded into the
+//! neighbouring constants: `M_i(q) = R_i M_z(q) R_iᵀ`), so every joint moves about or
+//! along `z`: a revolute joint then only mixes two columns of the accumulated rotation
+//! with `(cos q, sin q)`, and constants without rotation only translate.
+//!
 //! All per-tick functions write into a caller-owned [`ChainWorkspace`] and allocate nothing.
 
 use std::collections::HashMap;
@@ -85,12 +90,25 @@ impl ToolOffset {
     }
 }
 
+/// One movable joint in a frame whose z axis is the joint axis (see [`Chain::new`]).
 #[derive(Debug, Clone)]
 struct Segment {
-    /// Constant transform from the previous joint's moved frame to this joint frame.
+    /// Constant transform from the previous joint's moved (z-aligned) frame to this
+    /// joint's z-aligned frame.
     pre: IsometryMatrix3<f64>,
-    axis: Unit<Vector3<f64>>,
+    /// `pre`'s rotation is exactly the identity (only its translation is applied).
+    pre_translation_only: bool,
     prismatic: bool,
+}
+
+/// A rotation `A` with `A e_z = a` (the identity for `a = e_z`).
+fn z_to(a: &Unit<Vector3<f64>>) -> Rotation3<f64> {
+    if a.into_inner() == Vector3::z() {
+        return Rotation3::identity();
+    }
+    Rotation3::rotation_between(&Vector3::z(), a)
+        // a = −e_z: half a turn about x.
+        .unwrap_or_else(|| Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI))
 }
 
 /// A serial chain with its movable joints, ready for FK and Jacobians.
@@ -148,6 +166,7 @@ impl Chain {
         let mut joint_names = Vec::new();
         let mut limits = Vec::new();
         let mut acc = IsometryMatrix3::identity();
+        let mut prev_align = Rotation3::identity();
         for &j in &path {
             let joint = &model.joints[j];
             match joint.kind {
@@ -169,9 +188,21 @@ impl Chain {
                         }
                         acc = acc * joint.origin * joint.motion(v);
                     } else {
+                        // Previous z-aligned frame → this joint's z-aligned frame.
+                        let align = z_to(&joint.axis);
+                        let pre = IsometryMatrix3::from_parts(
+                            nalgebra::Translation3::identity(),
+                            prev_align.inverse(),
+                        ) * acc
+                            * joint.origin
+                            * IsometryMatrix3::from_parts(
+                                nalgebra::Translation3::identity(),
+                                align,
+                            );
+                        prev_align = align;
                         segments.push(Segment {
-                            pre: acc * joint.origin,
-                            axis: joint.axis,
+                            pre_translation_only: pre.rotation == Rotation3::identity(),
+                            pre,
                             prismatic: joint.kind == JointKind::Prismatic,
                         });
                         joint_names.push(joint.name.clone());
@@ -196,7 +227,11 @@ impl Chain {
             joint_names,
             limits,
             segments,
-            tail: acc * spec.tool.isometry(),
+            tail: IsometryMatrix3::from_parts(
+                nalgebra::Translation3::identity(),
+                prev_align.inverse(),
+            ) * acc
+                * spec.tool.isometry(),
         })
     }
 
@@ -230,14 +265,25 @@ impl Chain {
         );
         let mut t = IsometryMatrix3::identity();
         for (i, (seg, &qi)) in self.segments.iter().zip(q).enumerate() {
-            t *= seg.pre;
-            let z = t.rotation * seg.axis.into_inner();
+            if seg.pre_translation_only {
+                t.translation.vector += t.rotation * seg.pre.translation.vector;
+            } else {
+                t *= seg.pre;
+            }
+            let r = t.rotation.matrix_mut_unchecked();
+            let z = r.column(2).into_owned();
             ws.origins[i] = t.translation.vector;
             ws.axes[i] = z;
             if seg.prismatic {
                 t.translation.vector += z * qi;
             } else {
-                t.rotation *= Rotation3::from_axis_angle(&seg.axis, qi);
+                // R ← R R_z(q): columns (x, y) ← (c x + s y, −s x + c y).
+                let (s, c) = qi.sin_cos();
+                for row in 0..3 {
+                    let (x, y) = (r[(row, 0)], r[(row, 1)]);
+                    r[(row, 0)] = c * x + s * y;
+                    r[(row, 1)] = c * y - s * x;
+                }
             }
         }
         ws.tip = t * self.tail;

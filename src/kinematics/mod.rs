@@ -20,5 +20,7 @@ pub mod robot;
 pub use chain::{Chain, ChainSpec, ChainWorkspace, TaskSpace, ToolOffset};
 pub use error::KinematicsError;
 pub use model::{JointKind, JointLimits, JointModel, RobotModel};
-pub use pinv::{condition_number, DampedPinv, Metric, PinvReport, PinvStatus, PinvWorkspace};
+pub use pinv::{
+    condition_number, DampedPinv, JacobianBlock, Metric, PinvReport, PinvStatus, PinvWorkspace,
+};
 pub use robot::{Kinematics, KinematicsSettings, KinematicsWorkspace};

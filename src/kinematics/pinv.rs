@@ -15,6 +15,8 @@
 //! Setup allocates; [`DampedPinv::factor`] and [`DampedPinv::solve`] reuse a
 //! caller-owned [`PinvWorkspace`] and allocate nothing.
 
+use std::ops::Range;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::error::KinematicsError;
@@ -120,12 +122,24 @@ pub struct PinvWorkspace {
     ok: bool,
 }
 
+/// One diagonal block of a block-diagonal Jacobian (one chain): task rows `rows`, joint
+/// columns `cols`; `J` is zero outside its blocks.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct JacobianBlock {
+    /// Task-space rows of the block.
+    pub rows: Range<usize>,
+    /// Joint-space columns of the block.
+    pub cols: Range<usize>,
+}
+
 /// The configured pseudo-inverse: metric, damping and singularity threshold.
 #[derive(Debug, Clone)]
 pub struct DampedPinv {
     metric: Metric,
     damping: f64,
     singular_manipulability: f64,
+    /// Block structure of `J` (empty: dense).
+    blocks: Vec<JacobianBlock>,
 }
 
 impl DampedPinv {
@@ -151,7 +165,62 @@ impl DampedPinv {
             metric,
             damping,
             singular_manipulability,
+            blocks: Vec::new(),
         })
+    }
+
+    /// Declares `J` block diagonal (e.g. one block per chain of a robot whose chains share
+    /// no joint): `J M⁻¹ Jᵀ + λ²I` is then block diagonal too, and [`DampedPinv::factor`]
+    /// and [`DampedPinv::solve`] work block by block (the manipulability is the product of
+    /// the blocks'). The blocks' rows must tile `0..m` and their columns `0..n` in order,
+    /// and `M⁻¹` must not couple columns of different blocks.
+    pub fn with_blocks(mut self, blocks: Vec<JacobianBlock>) -> Result<Self, KinematicsError> {
+        let bad = |message: String| {
+            Err(KinematicsError::InvalidSetting {
+                field: "kinematics.blocks".into(),
+                message,
+            })
+        };
+        let n = self.metric.dim();
+        let (mut r, mut c) = (0, 0);
+        for b in &blocks {
+            if b.rows.start != r || b.cols.start != c || b.rows.is_empty() || b.cols.is_empty() {
+                return bad(format!(
+                    "blocks {blocks:?} do not tile the rows and columns in order"
+                ));
+            }
+            (r, c) = (b.rows.end, b.cols.end);
+        }
+        if c != n {
+            return bad(format!("blocks cover {c} columns, the metric has {n}"));
+        }
+        for (i, a) in blocks.iter().enumerate() {
+            for b in blocks.iter().skip(i + 1) {
+                let coupled = a.cols.clone().any(|p| {
+                    b.cols
+                        .clone()
+                        .any(|q| self.metric.inv[(p, q)] != 0.0 || self.metric.inv[(q, p)] != 0.0)
+                });
+                if coupled {
+                    return bad(format!(
+                        "the metric couples columns {:?} and {:?}",
+                        a.cols, b.cols
+                    ));
+                }
+            }
+        }
+        self.blocks = blocks;
+        Ok(self)
+    }
+
+    /// The diagonal blocks of an `m × n` Jacobian: the declared ones, or one dense block.
+    fn blocks_of(&self, m: usize, n: usize) -> impl Iterator<Item = JacobianBlock> + '_ {
+        debug_assert!(self.blocks.last().is_none_or(|b| b.rows.end == m));
+        let dense = self.blocks.is_empty().then_some(JacobianBlock {
+            rows: 0..m,
+            cols: 0..n,
+        });
+        dense.into_iter().chain(self.blocks.iter().cloned())
     }
 
     /// Damping `λ` of eq. 13.
@@ -199,24 +268,42 @@ impl DampedPinv {
                 }
             }
         }
-        // S0 = (J M⁻¹) Jᵀ, symmetric: fill the lower triangle of l0 and l.
-        for r in 0..m {
-            for c in 0..=r {
-                let mut s = 0.0;
-                for k in 0..n {
-                    s += ws.jm[(r, k)] * j[(c, k)];
+        // S0 = (J M⁻¹) Jᵀ, symmetric and block diagonal: fill the lower triangle of each
+        // block of l0 and l and factor it. Column-major slices (entry (r, c) at r + c·m):
+        // no per-index bounds checks on the matrices.
+        let (jm, jv) = (ws.jm.as_slice(), j.as_slice());
+        let (l0, l) = (ws.l0.as_mut_slice(), ws.l.as_mut_slice());
+        let (mut regular, mut ok, mut product) = (true, true, 1.0);
+        for b in self.blocks_of(m, n) {
+            for r in b.rows.clone() {
+                for c in b.rows.start..=r {
+                    let mut acc = 0.0;
+                    for k in b.cols.clone() {
+                        acc += jm[r + k * m] * jv[c + k * m];
+                    }
+                    l0[r + c * m] = acc;
+                    l[r + c * m] = acc;
                 }
-                ws.l0[(r, c)] = s;
-                ws.l[(r, c)] = s;
+                l[r + r * m] += self.damping * self.damping;
             }
-            ws.l[(r, r)] += self.damping * self.damping;
+            let reg = cholesky_block(l0, m, b.rows.clone());
+            regular &= reg;
+            if reg {
+                product *= b.rows.clone().map(|i| l0[i + i * m]).product::<f64>();
+            }
+            if self.damping == 0.0 {
+                // Undamped: the solve's factor is the one just computed.
+                ok &= reg;
+                for c in b.rows.clone() {
+                    let col = c * m;
+                    l[col + c..col + b.rows.end].copy_from_slice(&l0[col + c..col + b.rows.end]);
+                }
+            } else {
+                ok &= cholesky_block(l, m, b.rows.clone());
+            }
         }
-        let manipulability = if cholesky_in_place(&mut ws.l0) {
-            (0..m).map(|i| ws.l0[(i, i)]).product::<f64>()
-        } else {
-            0.0
-        };
-        ws.ok = cholesky_in_place(&mut ws.l);
+        ws.ok = ok;
+        let manipulability = if regular { product } else { 0.0 };
         let status = if !ws.ok || !manipulability.is_finite() {
             if ws.ok {
                 PinvStatus::NearSingular
@@ -244,28 +331,29 @@ impl DampedPinv {
             out.fill(0.0);
             return;
         }
-        // L Lᵀ y = v.
-        for i in 0..m {
-            let mut s = v[i];
-            for k in 0..i {
-                s -= ws.l[(i, k)] * ws.y[k];
+        // Per block: L Lᵀ y = v (column-major slices, entry (i, k) at i + k·m), then
+        // out = M⁻¹ Jᵀ y = (J M⁻¹)ᵀ y on the block's columns.
+        let (l, jm, y) = (ws.l.as_slice(), ws.jm.as_slice(), ws.y.as_mut_slice());
+        for b in self.blocks_of(m, n) {
+            let rows = b.rows.clone();
+            for i in rows.clone() {
+                let mut s = v[i];
+                for k in rows.start..i {
+                    s -= l[i + k * m] * y[k];
+                }
+                y[i] = s / l[i + i * m];
             }
-            ws.y[i] = s / ws.l[(i, i)];
-        }
-        for i in (0..m).rev() {
-            let mut s = ws.y[i];
-            for k in i + 1..m {
-                s -= ws.l[(k, i)] * ws.y[k];
+            for i in rows.clone().rev() {
+                let mut s = y[i];
+                for k in i + 1..rows.end {
+                    s -= l[k + i * m] * y[k];
+                }
+                y[i] = s / l[i + i * m];
             }
-            ws.y[i] = s / ws.l[(i, i)];
-        }
-        // out = M⁻¹ Jᵀ y = (J M⁻¹)ᵀ y.
-        for (c, o) in out.iter_mut().enumerate() {
-            let mut s = 0.0;
-            for r in 0..m {
-                s += ws.jm[(r, c)] * ws.y[r];
+            for c in b.cols.clone() {
+                let col = &jm[c * m + rows.start..c * m + rows.end];
+                out[c] = col.iter().zip(&y[rows.clone()]).map(|(a, b)| a * b).sum();
             }
-            *o = s;
         }
     }
 
@@ -305,24 +393,25 @@ impl DampedPinv {
 }
 
 /// In-place Cholesky of the lower triangle of a symmetric matrix; false if not PD.
-fn cholesky_in_place(a: &mut DMatrix<f64>) -> bool {
-    let m = a.nrows();
-    for j in 0..m {
-        let mut d = a[(j, j)];
-        for k in 0..j {
-            d -= a[(j, k)] * a[(j, k)];
+/// In-place Cholesky of the lower triangle of the diagonal block `rows × rows` of a
+/// symmetric `m × m` matrix stored column-major in `a`; false if not PD.
+fn cholesky_block(a: &mut [f64], m: usize, rows: Range<usize>) -> bool {
+    for j in rows.clone() {
+        let mut d = a[j + j * m];
+        for k in rows.start..j {
+            d -= a[j + k * m] * a[j + k * m];
         }
         if !(d > 0.0 && d.is_finite()) {
             return false;
         }
         let d = d.sqrt();
-        a[(j, j)] = d;
-        for i in j + 1..m {
-            let mut s = a[(i, j)];
-            for k in 0..j {
-                s -= a[(i, k)] * a[(j, k)];
+        a[j + j * m] = d;
+        for i in j + 1..rows.end {
+            let mut s = a[i + j * m];
+            for k in rows.start..j {
+                s -= a[i + k * m] * a[j + k * m];
             }
-            a[(i, j)] = s / d;
+            a[i + j * m] = s / d;
         }
     }
     true
@@ -337,5 +426,94 @@ pub fn condition_number(j: &DMatrix<f64>) -> f64 {
         max / min
     } else {
         f64::INFINITY
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A block-diagonal 5 × 7 Jacobian (blocks 2 × 3 and 3 × 4) with a diagonal metric.
+    fn blocked() -> (DMatrix<f64>, Vec<JacobianBlock>, Vec<f64>) {
+        let mut j = DMatrix::zeros(5, 7);
+        let mut v = 0.3;
+        for (rows, cols) in [(0..2, 0..3), (2..5, 3..7)] {
+            for r in rows.clone() {
+                for c in cols.clone() {
+                    v = (v * 7.3 + 0.11) % 2.0 - 1.0;
+                    j[(r, c)] = v;
+                }
+            }
+        }
+        let blocks = vec![
+            JacobianBlock {
+                rows: 0..2,
+                cols: 0..3,
+            },
+            JacobianBlock {
+                rows: 2..5,
+                cols: 3..7,
+            },
+        ];
+        (j, blocks, vec![1.0, 2.0, 0.5, 1.5, 1.0, 3.0, 0.7])
+    }
+
+    #[test]
+    fn blockwise_pinv_equals_the_dense_one() {
+        let (j, blocks, metric) = blocked();
+        let xdot = [0.4, -1.2, 0.3, 0.9, -0.5];
+        for damping in [0.0, 0.05] {
+            let dense = DampedPinv::new(Metric::diagonal(&metric).unwrap(), damping, 0.0).unwrap();
+            let blockwise = dense.clone().with_blocks(blocks.clone()).unwrap();
+            let (mut wd, mut wb) = (dense.workspace(5), blockwise.workspace(5));
+            let (rd, rb) = (dense.factor(&j, &mut wd), blockwise.factor(&j, &mut wb));
+            assert_eq!(rd.status, PinvStatus::Regular);
+            assert_eq!(rb.status, rd.status);
+            assert!((rd.manipulability - rb.manipulability).abs() < 1e-12 * rd.manipulability);
+            let (mut od, mut ob) = ([0.0; 7], [0.0; 7]);
+            dense.solve(&mut wd, &xdot, &mut od);
+            blockwise.solve(&mut wb, &xdot, &mut ob);
+            for (a, b) in od.iter().zip(&ob) {
+                assert!((a - b).abs() < 1e-12, "{od:?} vs {ob:?}");
+            }
+            if damping == 0.0 {
+                // Exact lift: J J⁺ ẋ = ẋ.
+                let back = &j * DVector::from_column_slice(&ob);
+                for (a, b) in back.iter().zip(&xdot) {
+                    assert!((a - b).abs() < 1e-12);
+                }
+            }
+        }
+        // A rank-deficient block makes the whole Jacobian singular.
+        let mut js = j.clone();
+        for c in 3..7 {
+            js[(4, c)] = js[(3, c)];
+        }
+        let p = DampedPinv::new(Metric::identity(7), 0.0, 0.0)
+            .unwrap()
+            .with_blocks(blocks)
+            .unwrap();
+        let mut ws = p.workspace(5);
+        assert_eq!(p.factor(&js, &mut ws).status, PinvStatus::Singular);
+    }
+
+    #[test]
+    fn bad_blocks_are_refused() {
+        let (_, blocks, _) = blocked();
+        let p = DampedPinv::new(Metric::identity(7), 0.0, 0.0).unwrap();
+        let gap = vec![
+            blocks[0].clone(),
+            JacobianBlock {
+                rows: 2..5,
+                cols: 4..7,
+            },
+        ];
+        assert!(p.clone().with_blocks(gap).is_err());
+        assert!(p.clone().with_blocks(blocks[..1].to_vec()).is_err());
+        let mut m = DMatrix::identity(7, 7);
+        m[(0, 5)] = 0.1;
+        m[(5, 0)] = 0.1;
+        let coupled = DampedPinv::new(Metric::full(m).unwrap(), 0.0, 0.0).unwrap();
+        assert!(coupled.with_blocks(blocks).is_err());
     }
 }

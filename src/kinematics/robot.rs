@@ -13,7 +13,7 @@ use nalgebra::{DMatrix, DVector};
 use super::chain::{Chain, ChainSpec, ChainWorkspace};
 use super::error::KinematicsError;
 use super::model::{JointLimits, RobotModel};
-use super::pinv::{DampedPinv, Metric, PinvReport, PinvWorkspace};
+use super::pinv::{DampedPinv, JacobianBlock, Metric, PinvReport, PinvWorkspace};
 
 /// Settings of the lift: damping `λ`, metric `M`, singularity threshold.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -130,7 +130,18 @@ impl Kinematics {
                 })
             }
         };
-        let pinv = DampedPinv::new(metric, settings.damping, settings.singular_manipulability)?;
+        // Chains share no joint and the metric is diagonal: J and J M⁻¹ Jᵀ are block
+        // diagonal, one block per chain, and the pseudo-inverse is computed per chain.
+        let blocks = chains
+            .iter()
+            .enumerate()
+            .map(|(i, c)| JacobianBlock {
+                rows: x_offsets[i]..x_offsets[i] + c.task.dim(),
+                cols: q_offsets[i]..q_offsets[i] + c.dof(),
+            })
+            .collect();
+        let pinv = DampedPinv::new(metric, settings.damping, settings.singular_manipulability)?
+            .with_blocks(blocks)?;
         Ok(Self {
             robot: model.name.clone(),
             chains,

@@ -426,3 +426,92 @@ fn broken_input_gives_clear_errors() {
         "{e}"
     );
 }
+
+/// crossym's FK (z-aligned joint frames) against the `k` crate's (per-joint axis-angle
+/// transforms) on the test arm, whose axes include a tilted one and −z, and on the
+/// RB-Y1 arms when the vendor URDF is present: tip pose to 1e-12.
+#[test]
+fn fk_matches_the_k_crate() {
+    /// `base_joint`: k's joint whose child is the chain's base link (None: the root).
+    fn compare(
+        urdf: &std::path::Path,
+        base: &str,
+        base_joint: Option<&str>,
+        tip: &str,
+        end_joint: &str,
+    ) {
+        let model = RobotModel::from_urdf_file(urdf).unwrap();
+        let spec = ChainSpec {
+            name: "c".into(),
+            base: base.into(),
+            tip: tip.into(),
+            tool: ToolOffset::default(),
+            task: TaskSpace::Xyz,
+        };
+        let chain = Chain::new(&model, &spec, &HashMap::new()).unwrap();
+        let tree = k::Chain::<f64>::from_urdf_file(urdf).unwrap();
+        let end = tree.find(end_joint).unwrap().clone();
+        let serial = k::SerialChain::from_end(&end);
+        // k's serial chain starts at the root: joints above the base stay at 0.
+        let names: Vec<String> = serial.iter_joints().map(|j| j.name.clone()).collect();
+        let mut rng = common::rng(7);
+        let mut ws = chain.workspace();
+        for _ in 0..50 {
+            let q = common::random_q(&mut rng, &chain.limits);
+            let full: Vec<f64> = names
+                .iter()
+                .map(|n| {
+                    chain
+                        .joint_names
+                        .iter()
+                        .position(|c| c == n)
+                        .map_or(0.0, |i| q[i])
+                })
+                .collect();
+            serial.set_joint_positions_unchecked(&full);
+            serial.update_transforms();
+            let base_world = base_joint.map_or_else(k::nalgebra::Isometry3::identity, |j| {
+                tree.find(j).unwrap().world_transform().unwrap()
+            });
+            let theirs = base_world.inverse() * end.world_transform().unwrap();
+            let ours = chain.forward(&q, &mut ws);
+            // Two nalgebra versions: compare entries.
+            let (tp, tr) = (
+                theirs.translation.vector,
+                theirs.rotation.to_rotation_matrix(),
+            );
+            let dp = (0..3)
+                .map(|i| (ours.translation.vector[i] - tp[i]).abs())
+                .fold(0.0, f64::max);
+            let dr = (0..9)
+                .map(|i| (ours.rotation.matrix()[(i / 3, i % 3)] - tr[(i / 3, i % 3)]).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                dp < 1e-12 && dr < 1e-12,
+                "{tip}: Δp {dp:e}, ΔR {dr:e} at {q:?}"
+            );
+        }
+    }
+    compare(
+        &common::path("urdf/test_arm_7dof.urdf"),
+        "base_link",
+        None,
+        "tool0",
+        "tool_joint",
+    );
+    match common::rby1_urdf() {
+        Some(urdf) => {
+            for side in ["left", "right"] {
+                let end = format!("FT_Sensor_END_{side}");
+                compare(
+                    &urdf,
+                    "link_torso_5",
+                    Some("torso_5"),
+                    &format!("ee_{side}"),
+                    &end,
+                );
+            }
+        }
+        None => eprintln!("SKIP RB-Y1 part: vendor URDF absent"),
+    }
+}

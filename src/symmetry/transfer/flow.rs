@@ -8,10 +8,16 @@
 //!
 //! The differential of the flow map, needed to transform velocities
 //! (`q̇ ↦ dΦ_g|_q q̇`), is integrated together with it from the variational equation
-//! `dδ/dt = dX|_γ δ`, `δ(0) = v`, where `dX|_γ δ` is a central difference of the field
-//! along `δ` at the same point (no step-sequence noise).
+//! `dδ/dt = dX|_γ δ`, `δ(0) = v`, where `dX|_γ δ` is a central (or forward) difference
+//! of the field along `δ` at the same point (no step-sequence noise).
 //!
-//! [`integrate`] allocates nothing; scratch lives in a caller-owned [`FlowWorkspace`].
+//! An orbit sampled at several group elements `exp(t_1 ξ), exp(t_2 ξ), …` is one
+//! integration through the checkpoints `t_i` ([`integrate_through`]), not one flow per
+//! element; many flows of one field from nearby points (the samples of a trajectory)
+//! can start from the previous flow's step size ([`FlowSettings::warm_start`]).
+//!
+//! [`integrate`] and [`integrate_through`] allocate nothing; scratch lives in a
+//! caller-owned [`FlowWorkspace`].
 
 use crate::symmetry::field::VectorField;
 
@@ -33,6 +39,11 @@ pub struct FlowSettings {
     /// absent → all.
     #[serde(default)]
     pub error_dims: Option<usize>,
+    /// Start from the step size the controller had at the end of the previous
+    /// integration with the same workspace (instead of the initial-step heuristic): for
+    /// many flows of one field from nearby points, e.g. along a trajectory.
+    #[serde(default)]
+    pub warm_start: bool,
 }
 
 fn default_rtol() -> f64 {
@@ -52,6 +63,7 @@ impl Default for FlowSettings {
             atol: default_atol(),
             max_steps: default_max_steps(),
             error_dims: None,
+            warm_start: false,
         }
     }
 }
@@ -113,6 +125,8 @@ pub struct FlowWorkspace {
     y: Vec<f64>,
     tmp: Vec<f64>,
     y5: Vec<f64>,
+    /// The controller's step size at the end of the last integration (0: none yet).
+    h_last: f64,
 }
 
 impl FlowWorkspace {
@@ -123,6 +137,7 @@ impl FlowWorkspace {
             y: vec![0.0; d],
             tmp: vec![0.0; d],
             y5: vec![0.0; d],
+            h_last: 0.0,
         }
     }
 
@@ -184,18 +199,63 @@ pub fn integrate(
     settings: &FlowSettings,
     ws: &mut FlowWorkspace,
 ) -> FlowStatus {
+    let st = integrate_through(field, &[t], y0, settings, ws, &mut |_, y| {
+        out.copy_from_slice(y)
+    });
+    if st.is_done() && out.iter().any(|v| !v.is_finite()) {
+        return FlowStatus::NonFinite { t };
+    }
+    st
+}
+
+/// Integrates `dy/dt = X(y)` from `y0` through the checkpoints `ts` and calls
+/// `visit(i, y(ts[i]))` at each one reached. Allocation-free.
+///
+/// The checkpoints lie on one side of 0 with `|ts[i]|` non-decreasing (e.g. the angles
+/// `30°, 60°, …` of one orbit); anything else is reported as
+/// [`FlowStatus::NonFinite`] at `t = 0` without integrating. Steps are shortened to land
+/// on each checkpoint, but the integration is not restarted there: the FSAL stage and
+/// the step size carry over, so a sequence of checkpoints costs about what one flow to
+/// the last of them costs. On failure the status holds the time reached, and every
+/// checkpoint before it has been visited.
+pub fn integrate_through(
+    field: &dyn VectorField,
+    ts: &[f64],
+    y0: &[f64],
+    settings: &FlowSettings,
+    ws: &mut FlowWorkspace,
+    visit: &mut dyn FnMut(usize, &[f64]),
+) -> FlowStatus {
     let d = y0.len();
     debug_assert_eq!(ws.dim(), d);
     ws.y.copy_from_slice(y0);
-    if t == 0.0 {
-        out.copy_from_slice(y0);
+    let Some(&last) = ts.last() else {
+        return FlowStatus::Done {
+            steps: 0,
+            rejected: 0,
+        };
+    };
+    let dir = if last < 0.0 { -1.0 } else { 1.0 };
+    let ordered = ts.iter().all(|t| t.is_finite() && t * dir >= 0.0)
+        && ts.windows(2).all(|w| w[1] * dir >= w[0] * dir);
+    if !ordered {
+        return FlowStatus::NonFinite { t: 0.0 };
+    }
+    let mut next = 0; // first checkpoint not yet visited
+    let mut visit_reached = |next: &mut usize, s: f64, y: &[f64]| {
+        while *next < ts.len() && ts[*next].abs() <= s {
+            visit(*next, y);
+            *next += 1;
+        }
+    };
+    visit_reached(&mut next, 0.0, y0);
+    if next == ts.len() {
         return FlowStatus::Done {
             steps: 0,
             rejected: 0,
         };
     }
-    let dir = t.signum();
-    let total = t.abs();
+    let total = last.abs();
     let mut s = 0.0; // |time| done
     let mut steps = 0;
     let mut rejected = 0;
@@ -213,22 +273,26 @@ pub fn integrate(
     };
     let d0 = norm(&ws.y, &ws.y);
     let d1 = norm(&ws.k[0], &ws.y);
-    let mut h = if d0 < 1e-5 || d1 < 1e-5 {
+    // `h` is the controller's step; a step is shortened to land on the next checkpoint
+    // without changing `h`.
+    let mut h = if settings.warm_start && ws.h_last > 0.0 {
+        ws.h_last
+    } else if d0 < 1e-5 || d1 < 1e-5 {
         1e-6
     } else {
         0.01 * d0 / d1
     };
     h = h.min(total).max(total * 1e-12);
     let mut attempts = 0;
-    while s < total {
+    while next < ts.len() {
         attempts += 1;
         if attempts > settings.max_steps {
             return FlowStatus::TooManySteps { t: dir * s };
         }
-        if s + h > total {
-            h = total - s;
-        }
-        let hs = dir * h;
+        let target = ts[next].abs();
+        let landing = s + h >= target;
+        let hh = if landing { target - s } else { h };
+        let hs = dir * hh;
         let mut defined = true;
         for stage in 1..7 {
             for i in 0..d {
@@ -246,10 +310,10 @@ pub fn integrate(
         }
         if !defined {
             // Shrink the step; a genuinely undefined region stops the flow.
-            if h < total * 1e-9 {
+            if hh < total * 1e-9 {
                 return FlowStatus::FieldUndefined { t: dir * s };
             }
-            h *= 0.25;
+            h = hh * 0.25;
             rejected += 1;
             continue;
         }
@@ -267,35 +331,43 @@ pub fn integrate(
             err += (e / sc) * (e / sc);
         }
         let err = (err / de as f64).sqrt();
-        if !err.is_finite() {
-            if h < total * 1e-9 {
+        if !err.is_finite() || ws.y5.iter().any(|v| !v.is_finite()) {
+            if hh < total * 1e-9 {
                 return FlowStatus::NonFinite { t: dir * s };
             }
-            h *= 0.25;
+            h = hh * 0.25;
             rejected += 1;
             continue;
         }
         let fac = (0.9 * err.powf(-0.2)).clamp(0.2, 5.0);
         if err <= 1.0 {
-            s += h;
+            s = if landing { target } else { s + hh };
             steps += 1;
             ws.y.copy_from_slice(&ws.y5);
             let (first, rest) = ws.k.split_at_mut(1);
             first[0].copy_from_slice(&rest[5]);
-            h *= if rejected > 0 && err > 0.5 {
-                fac.min(1.0)
+            let grown = hh
+                * if rejected > 0 && err > 0.5 {
+                    fac.min(1.0)
+                } else {
+                    fac
+                };
+            // A step cut short by a checkpoint says little about the step size: keep the
+            // controller's step unless the error asks for a smaller one.
+            h = if landing && fac >= 1.0 {
+                h.max(grown)
             } else {
-                fac
+                grown
             };
+            if landing {
+                visit_reached(&mut next, s, &ws.y);
+            }
         } else {
             rejected += 1;
-            h *= fac.min(1.0);
+            h = hh * fac.min(1.0);
         }
     }
-    out.copy_from_slice(&ws.y);
-    if out.iter().any(|v| !v.is_finite()) {
-        return FlowStatus::NonFinite { t };
-    }
+    ws.h_last = h;
     FlowStatus::Done { steps, rejected }
 }
 
@@ -476,5 +548,66 @@ mod tests {
             FlowStatus::FieldUndefined { t } => assert!(t <= 0.5 && t > 0.4, "{t}"),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn checkpoints_match_separate_flows_and_warm_start_saves_steps() {
+        let rot = FnField::new(2, |p: &[f64], o: &mut [f64]| {
+            o[0] = -p[1];
+            o[1] = p[0];
+        });
+        let settings = FlowSettings {
+            rtol: 1e-9,
+            atol: 1e-11,
+            ..Default::default()
+        };
+        let mut ws = FlowWorkspace::new(2);
+        let ts = [-0.5, -1.0, -1.0, -2.5];
+        let mut seen = Vec::new();
+        let st = integrate_through(&rot, &ts, &[1.0, 0.0], &settings, &mut ws, &mut |i, y| {
+            seen.push((i, y[0], y[1]))
+        });
+        let FlowStatus::Done { steps: through, .. } = st else {
+            panic!("{st:?}")
+        };
+        assert_eq!(seen.iter().map(|s| s.0).collect::<Vec<_>>(), [0, 1, 2, 3]);
+        let mut separate = 0;
+        for (&t, &(_, x, y)) in ts.iter().zip(&seen) {
+            assert!((x - t.cos()).abs() < 1e-8 && (y - t.sin()).abs() < 1e-8);
+            let mut out = [0.0; 2];
+            let st = integrate(&rot, t, &[1.0, 0.0], &mut out, &settings, &mut ws);
+            if let FlowStatus::Done { steps, .. } = st {
+                separate += steps;
+            }
+        }
+        assert!(through < separate, "{through} vs {separate}");
+        // Unordered checkpoints are refused without integrating.
+        let st = integrate_through(
+            &rot,
+            &[1.0, 0.5],
+            &[1.0, 0.0],
+            &settings,
+            &mut ws,
+            &mut |_, _| panic!("visited"),
+        );
+        assert_eq!(st, FlowStatus::NonFinite { t: 0.0 });
+        // Warm start: the same flow from a nearby point takes fewer steps, same answer.
+        let warm = FlowSettings {
+            warm_start: true,
+            ..settings
+        };
+        let mut out = [0.0; 2];
+        let mut cold_ws = FlowWorkspace::new(2);
+        let cold = integrate(&rot, 0.7, &[1.0, 0.0], &mut out, &settings, &mut cold_ws);
+        let mut warm_ws = FlowWorkspace::new(2);
+        integrate(&rot, 0.7, &[1.0, 0.0], &mut out, &warm, &mut warm_ws);
+        let again = integrate(&rot, 0.7, &[1.0, 1e-3], &mut out, &warm, &mut warm_ws);
+        let (FlowStatus::Done { steps: c, .. }, FlowStatus::Done { steps: w, .. }) = (cold, again)
+        else {
+            panic!("{cold:?} {again:?}")
+        };
+        assert!(w < c, "warm {w} vs cold {c}");
+        let (s, co) = 0.7f64.sin_cos();
+        assert!((out[0] - (co - 1e-3 * s)).abs() < 1e-8 && (out[1] - (s + 1e-3 * co)).abs() < 1e-8);
     }
 }

@@ -26,7 +26,7 @@ use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
 use crate::symmetry::field::{lie_bracket, VectorField};
 use crate::symmetry::lie::TaskGroupAction;
 use crate::symmetry::transfer::flow::{
-    integrate, FlowSettings, FlowStatus, FlowWorkspace, VariationalField,
+    integrate, integrate_through, FlowSettings, FlowStatus, FlowWorkspace, VariationalField,
 };
 
 /// Errors of the lifted action: the flow could not be carried to the requested element.
@@ -116,13 +116,15 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
     }
 }
 
+/// Called with `(i, q_i, q̇_i)` at each checkpoint `t_i` of an orbit (rad, rad/s).
+pub type OrbitVisitor<'v> = dyn FnMut(usize, &[f64], &[f64]) + 'v;
+
 /// Scratch for [`LiftedAction`] (allocates once).
 #[derive(Debug, Clone)]
 pub struct LiftWorkspace {
     flow: FlowWorkspace,
     var: FlowWorkspace,
     y0: Vec<f64>,
-    y1: Vec<f64>,
 }
 
 /// Lifted action `Φ_Q(exp(ξ), q)` of a task-space Lie group action (eq. 18).
@@ -174,11 +176,10 @@ impl<'a> LiftedAction<'a> {
             flow: FlowWorkspace::new(n),
             var: FlowWorkspace::new(2 * n),
             y0: vec![0.0; 2 * n],
-            y1: vec![0.0; 2 * n],
         }
     }
 
-    fn outcome(&self, status: FlowStatus) -> Result<FlowStatus, LiftError> {
+    fn outcome(&self, status: FlowStatus, total: f64) -> Result<FlowStatus, LiftError> {
         match status {
             FlowStatus::Done { .. } => Ok(status),
             FlowStatus::FieldUndefined { t: 0.0 } => Err(LiftError::BadStart {
@@ -187,7 +188,7 @@ impl<'a> LiftedAction<'a> {
             FlowStatus::FieldUndefined { t } => Err(LiftError::Singular {
                 symmetry: self.action.name().to_string(),
                 t,
-                total: 1.0,
+                total,
             }),
             other => Err(LiftError::Integration {
                 symmetry: self.action.name().to_string(),
@@ -206,7 +207,7 @@ impl<'a> LiftedAction<'a> {
     ) -> Result<FlowStatus, LiftError> {
         let field = LiftedField::new(self.kin, self.action.generator_field(xi));
         let st = integrate(&field, 1.0, q, q_out, &self.settings, &mut ws.flow);
-        self.outcome(st)
+        self.outcome(st, 1.0)
     }
 
     /// `q_out = Φ_Q(exp(ξ), q)` and `qdot_out = dΦ_Q|_q q̇` (variational equation).
@@ -219,6 +220,26 @@ impl<'a> LiftedAction<'a> {
         qdot_out: &mut [f64],
         ws: &mut LiftWorkspace,
     ) -> Result<FlowStatus, LiftError> {
+        self.act_with_differential_through(xi, &[1.0], q, qdot, ws, &mut |_, qa, va| {
+            q_out.copy_from_slice(qa);
+            qdot_out.copy_from_slice(va);
+        })
+    }
+
+    /// `Φ_Q(exp(t_i ξ), q)` and `dΦ_Q|_q q̇` for every `t_i` of `ts`, from one integration
+    /// of the flow of `X_Q^ξ` through the checkpoints `t_i` (one side of 0, `|t_i|`
+    /// non-decreasing; see [`integrate_through`]): calls `visit(i, q_i, q̇_i)` for each
+    /// one reached, so an orbit `θ = 30°, 60°, …` costs one flow to its last angle.
+    /// On an error every checkpoint before the failure has been visited.
+    pub fn act_with_differential_through(
+        &self,
+        xi: &[f64],
+        ts: &[f64],
+        q: &[f64],
+        qdot: &[f64],
+        ws: &mut LiftWorkspace,
+        visit: &mut OrbitVisitor<'_>,
+    ) -> Result<FlowStatus, LiftError> {
         let n = self.kin.dof();
         let field = LiftedField::new(self.kin, self.action.generator_field(xi));
         // Forward-difference directional derivatives and step control on the positions:
@@ -230,11 +251,10 @@ impl<'a> LiftedAction<'a> {
             error_dims: Some(n),
             ..self.settings
         };
-        let st = integrate(&var, 1.0, &ws.y0, &mut ws.y1, &settings, &mut ws.var);
-        let st = self.outcome(st)?;
-        q_out.copy_from_slice(&ws.y1[..n]);
-        qdot_out.copy_from_slice(&ws.y1[n..]);
-        Ok(st)
+        let st = integrate_through(&var, ts, &ws.y0, &settings, &mut ws.var, &mut |i, y| {
+            visit(i, &y[..n], &y[n..])
+        });
+        self.outcome(st, ts.last().copied().unwrap_or(0.0))
     }
 
     /// Equivariance residual `‖f(Φ_Q(g, q)) − Φ_X(g, f(q))‖` (eq. 19) for `g = exp(ξ)`.
