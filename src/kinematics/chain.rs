@@ -141,6 +141,8 @@ pub struct ChainWorkspace {
     axes: Vec<Vector3<f64>>,
     /// Geometric Jacobian `[v; ω]` (6 × n) after [`Chain::jacobian`].
     pub jacobian: Matrix6xX<f64>,
+    /// Columns of `dJ_p[δ]` after [`Chain::position_jacobian_derivative`] (m/rad).
+    jacobian_dot: Vec<Vector3<f64>>,
 }
 
 impl Chain {
@@ -248,6 +250,7 @@ impl Chain {
             origins: vec![Vector3::zeros(); n],
             axes: vec![Vector3::zeros(); n],
             jacobian: Matrix6xX::zeros(n),
+            jacobian_dot: vec![Vector3::zeros(); n],
         }
     }
 
@@ -314,6 +317,38 @@ impl Chain {
         }
     }
 
+    /// Directional derivative `dJ_p|_q[δ]` of the 3 × n position Jacobian along `δ`
+    /// (rad or m per joint) at the `q` of the last [`Chain::jacobian`] call; column `i`
+    /// is then [`ChainWorkspace::jacobian_dot`]`(i)`. Allocation-free.
+    ///
+    /// With `ω_i = Σ_{k<i, revolute} δ_k z_k`, joint `i`'s axis and origin move as
+    /// `ż_i = ω_i × z_i`, `ṗ_i = Σ_{k<i} J_k^{(p_i)} δ_k = ω_i × p_i − Σ_{k<i, rev.} δ_k z_k × p_k
+    /// + Σ_{k<i, prism.} δ_k z_k`, the tip as `ṗ = J_p δ`, so the columns
+    /// `z_i × (p − p_i)` (revolute) and `z_i` (prismatic) have derivatives
+    /// `ż_i × (p − p_i) + z_i × (ṗ − ṗ_i)` and `ż_i`.
+    pub fn position_jacobian_derivative(&self, delta: &[f64], ws: &mut ChainWorkspace) {
+        debug_assert_eq!(delta.len(), self.dof());
+        let p = ws.tip.translation.vector;
+        let mut pdot = Vector3::zeros();
+        for (i, &d) in delta.iter().enumerate() {
+            pdot += ws.jacobian.fixed_view::<3, 1>(0, i) * d;
+        }
+        let (mut omega, mut c, mut t) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+        for (i, (seg, &d)) in self.segments.iter().zip(delta).enumerate() {
+            let (z, pi) = (ws.axes[i], ws.origins[i]);
+            let zdot = omega.cross(&z);
+            ws.jacobian_dot[i] = if seg.prismatic {
+                t += z * d;
+                zdot
+            } else {
+                let pidot = omega.cross(&pi) - c + t;
+                omega += z * d;
+                c += z.cross(&pi) * d;
+                zdot.cross(&(p - pi)) + z.cross(&(pdot - pidot))
+            };
+        }
+    }
+
     /// Copies the task-space point (2 or 3 coordinates) of the last FK into `out`.
     #[inline]
     pub fn task_point(&self, ws: &ChainWorkspace, out: &mut [f64]) {
@@ -346,5 +381,10 @@ impl ChainWorkspace {
     /// World (base-frame) unit axis `z_i` of movable joint `i` after the last FK call.
     pub fn joint_axis(&self, i: usize) -> Vector3<f64> {
         self.axes[i]
+    }
+
+    /// Column `i` of `dJ_p[δ]` after [`Chain::position_jacobian_derivative`] (m/rad).
+    pub fn jacobian_dot(&self, i: usize) -> Vector3<f64> {
+        self.jacobian_dot[i]
     }
 }

@@ -357,6 +357,23 @@ impl DampedPinv {
         }
     }
 
+    /// The multiplier `u = (J M⁻¹ Jᵀ + λ²I)⁻¹ v` of the last [`DampedPinv::solve`]
+    /// (so that its output is `M⁻¹ Jᵀ u`).
+    pub fn multiplier<'w>(&self, ws: &'w PinvWorkspace) -> &'w [f64] {
+        ws.y.as_slice()
+    }
+
+    /// `out = M⁻¹ v` (n). Allocation-free.
+    pub fn apply_metric_inverse(&self, v: &[f64], out: &mut [f64]) {
+        if self.metric.identity {
+            out.copy_from_slice(v);
+            return;
+        }
+        for (r, o) in out.iter_mut().enumerate() {
+            *o = (0..v.len()).map(|c| self.metric.inv[(r, c)] * v[c]).sum();
+        }
+    }
+
     /// The full `J⁺` (n × m) into `out`, column by column. Allocation-free.
     pub fn matrix(&self, ws: &mut PinvWorkspace, out: &mut DMatrix<f64>) {
         let (m, n) = ws.jm.shape();

@@ -69,6 +69,8 @@ pub struct KinematicsWorkspace {
     pub jac: DMatrix<f64>,
     /// Pseudo-inverse scratch.
     pub pinv: PinvWorkspace,
+    /// Stacked `dJ|_q[δ]` (m × n) after [`Kinematics::jacobian_derivative`].
+    pub jac_dot: DMatrix<f64>,
 }
 
 impl KinematicsWorkspace {
@@ -202,6 +204,7 @@ impl Kinematics {
             x: DVector::zeros(self.m),
             jac: DMatrix::zeros(self.m, self.n),
             pinv: self.pinv.workspace(self.m),
+            jac_dot: DMatrix::zeros(self.m, self.n),
         }
     }
 
@@ -243,6 +246,24 @@ impl Kinematics {
             for col in 0..c.dof() {
                 for r in 0..d {
                     ws.jac[(xo + r, qo + col)] = jc[(r, col)];
+                }
+            }
+        }
+    }
+
+    /// Directional derivative `dJ|_q[δ]` of the stacked task Jacobian along `δ` (rad or m
+    /// per joint) into `ws.jac_dot`, at the `q` of the last [`Kinematics::jacobian`] call
+    /// (see [`Chain::position_jacobian_derivative`]). Allocation-free.
+    pub fn jacobian_derivative(&self, delta: &[f64], ws: &mut KinematicsWorkspace) {
+        debug_assert_eq!(delta.len(), self.n);
+        for (i, c) in self.chains.iter().enumerate() {
+            let (qo, xo, d) = (self.q_offsets[i], self.x_offsets[i], c.task.dim());
+            let cw = &mut ws.chains[i];
+            c.position_jacobian_derivative(&delta[qo..qo + c.dof()], cw);
+            for col in 0..c.dof() {
+                let v = cw.jacobian_dot(col);
+                for r in 0..d {
+                    ws.jac_dot[(xo + r, qo + col)] = v[r];
                 }
             }
         }

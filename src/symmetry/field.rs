@@ -20,25 +20,45 @@ pub trait VectorField {
     /// Returns `false` when the field is undefined at `p` (e.g. a lifted field at a
     /// kinematic singularity); `out` is then unspecified.
     fn eval(&self, p: &[f64], out: &mut [f64]) -> bool;
+    /// `X(p)` into `out` and its directional derivative `dX|_p δ` into `out_d`, when the
+    /// field knows it in closed form (`None`: it does not; callers difference [`eval`]).
+    /// `Some(false)` where the field is undefined.
+    ///
+    /// [`eval`]: VectorField::eval
+    fn eval_derivative(
+        &self,
+        _p: &[f64],
+        _delta: &[f64],
+        _out: &mut [f64],
+        _out_d: &mut [f64],
+    ) -> Option<bool> {
+        None
+    }
 }
 
-impl<F: VectorField + ?Sized> VectorField for &F {
-    fn dim(&self) -> usize {
-        (**self).dim()
-    }
-    fn eval(&self, p: &[f64], out: &mut [f64]) -> bool {
-        (**self).eval(p, out)
-    }
+/// Forwards [`VectorField`] through a pointer type.
+macro_rules! forward_vector_field {
+    ($($ptr:ty),*) => {$(
+        impl<F: VectorField + ?Sized> VectorField for $ptr {
+            fn dim(&self) -> usize {
+                (**self).dim()
+            }
+            fn eval(&self, p: &[f64], out: &mut [f64]) -> bool {
+                (**self).eval(p, out)
+            }
+            fn eval_derivative(
+                &self,
+                p: &[f64],
+                delta: &[f64],
+                out: &mut [f64],
+                out_d: &mut [f64],
+            ) -> Option<bool> {
+                (**self).eval_derivative(p, delta, out, out_d)
+            }
+        }
+    )*};
 }
-
-impl<F: VectorField + ?Sized> VectorField for Box<F> {
-    fn dim(&self) -> usize {
-        (**self).dim()
-    }
-    fn eval(&self, p: &[f64], out: &mut [f64]) -> bool {
-        (**self).eval(p, out)
-    }
-}
+forward_vector_field!(&F, Box<F>);
 
 /// A vector field given by a closure (setup, tests, examples).
 pub struct FnField<F> {

@@ -299,11 +299,10 @@ pub struct Generator<'a> {
     pub xi: Vec<f64>,
 }
 
-impl VectorField for Generator<'_> {
-    fn dim(&self) -> usize {
-        self.action.dim()
-    }
-    fn eval(&self, x: &[f64], out: &mut [f64]) -> bool {
+impl Generator<'_> {
+    /// `out = Σ_k ξ_k (o_k + L_k (p − c))` per block when `affine`, else `Σ_k ξ_k L_k p`
+    /// (the linear part, the field's derivative along `p`).
+    fn apply(&self, p: &[f64], affine: bool, out: &mut [f64]) {
         let a = self.action;
         let d = a.block_dim;
         out.fill(0.0);
@@ -313,15 +312,38 @@ impl VectorField for Generator<'_> {
             }
             for b in 0..a.blocks {
                 for r in 0..d {
-                    let mut s = a.offset[k][r];
+                    let mut s = if affine { a.offset[k][r] } else { 0.0 };
                     for c in 0..d {
-                        s += a.linear[k][(r, c)] * (x[b * d + c] - a.center[c]);
+                        let shift = if affine { a.center[c] } else { 0.0 };
+                        s += a.linear[k][(r, c)] * (p[b * d + c] - shift);
                     }
                     out[b * d + r] += t * s;
                 }
             }
         }
+    }
+}
+
+impl VectorField for Generator<'_> {
+    fn dim(&self) -> usize {
+        self.action.dim()
+    }
+    fn eval(&self, x: &[f64], out: &mut [f64]) -> bool {
+        self.apply(x, true, out);
         true
+    }
+
+    /// Affine field: `dX|_x δ = Σ_k ξ_k L_k δ` per block, exactly.
+    fn eval_derivative(
+        &self,
+        x: &[f64],
+        delta: &[f64],
+        out: &mut [f64],
+        out_d: &mut [f64],
+    ) -> Option<bool> {
+        self.apply(x, true, out);
+        self.apply(delta, false, out_d);
+        Some(true)
     }
 }
 

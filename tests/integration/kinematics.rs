@@ -515,3 +515,42 @@ fn fk_matches_the_k_crate() {
         None => eprintln!("SKIP RB-Y1 part: vendor URDF absent"),
     }
 }
+
+/// `dJ|_q[δ]` (`Kinematics::jacobian_derivative`) against central differences of the
+/// stacked task Jacobian, on the planar dual arm and RB-Y1.
+#[test]
+fn jacobian_derivative_matches_finite_differences() {
+    fn check(k: &Kinematics, seed: u64) {
+        let mut rng = common::rng(seed);
+        let mut ws = k.workspace();
+        let h = 1e-6;
+        for _ in 0..30 {
+            let q = common::random_q(&mut rng, k.limits());
+            let delta: Vec<f64> = common::random_q(&mut rng, k.limits())
+                .iter()
+                .zip(&q)
+                .map(|(a, b)| a - b)
+                .collect();
+            let shifted =
+                |s: f64| -> Vec<f64> { q.iter().zip(&delta).map(|(a, d)| a + s * d).collect() };
+            k.jacobian(&shifted(h), &mut ws);
+            let jp = ws.jac.clone();
+            k.jacobian(&shifted(-h), &mut ws);
+            let fd = (jp - &ws.jac) / (2.0 * h);
+            k.jacobian(&q, &mut ws);
+            k.jacobian_derivative(&delta, &mut ws);
+            let err = (&ws.jac_dot - &fd).amax();
+            let scale = fd.amax().max(1.0);
+            assert!(
+                err < 1e-6 * scale,
+                "{}: dJ error {err:e} (scale {scale})",
+                k.robot
+            );
+        }
+    }
+    check(&common::planar().kinematics, 3);
+    match common::rby1() {
+        Some(r) => check(&r.kinematics, 4),
+        None => eprintln!("SKIP RB-Y1 part: vendor URDF absent"),
+    }
+}

@@ -4,7 +4,7 @@
 use std::f64::consts::{FRAC_PI_6, PI, TAU};
 
 use crossym::symmetry::compose::{self, ComposeTolerance, Composition, Condition};
-use crossym::symmetry::field::{VectorField, DEFAULT_FD_STEP};
+use crossym::symmetry::field::{FnField, VectorField, DEFAULT_FD_STEP};
 use crossym::symmetry::finite::SignedPermutation;
 use crossym::symmetry::lie::{AffineAction, LieGroupSpec};
 use crossym::symmetry::transfer::flow::FlowSettings;
@@ -532,4 +532,60 @@ fn lie_pairs_semi_direct_when_one_algebra_is_an_ideal() {
         ComposeTolerance::default(),
     );
     assert!(matches!(c, Composition::Incompatible { .. }), "{c:?}");
+}
+
+/// The lifted field's closed-form derivative `dX_Q|_q δ` (used by the variational
+/// equation) against central differences of `X_Q`, undamped with `M = I` and damped with
+/// a diagonal metric.
+#[test]
+fn lifted_field_derivative_matches_finite_differences() {
+    let planar = common::planar();
+    let mut cfg = common::load_config("planar_dual_arm.toml");
+    cfg.kinematics.damping = 0.05;
+    cfg.kinematics.metric_diagonal = Some(vec![1.0, 2.0, 0.5, 1.5, 1.0, 3.0, 0.7, 1.2]);
+    let damped = cfg.load_robot().unwrap().kinematics;
+    let r = planar_rotation();
+    let s = planar_scaling();
+    let kins = [&planar.kinematics, &damped];
+    let mut rng = common::rng(11);
+    for k in kins {
+        // A task field without a closed-form derivative: the lift differences it.
+        let nonlinear = FnField::new(4, |x: &[f64], o: &mut [f64]| {
+            o[0] = -x[1] + 0.1 * x[0] * x[0];
+            o[1] = x[0] + 0.5 * x[1].sin();
+            o[2] = 0.1 * x[2] * x[3];
+            o[3] = -x[2];
+        });
+        let fields: Vec<Box<dyn VectorField + '_>> = vec![
+            Box::new(LiftedField::new(k, r.basis_generator(0))),
+            Box::new(LiftedField::new(k, s.basis_generator(0))),
+            Box::new(LiftedField::new(k, &nonlinear)),
+        ];
+        for field in &fields {
+            for q in near_rest(20, 12) {
+                let delta: Vec<f64> = (0..8).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let (mut x, mut dx) = (vec![0.0; 8], vec![0.0; 8]);
+                assert_eq!(
+                    field.eval_derivative(&q, &delta, &mut x, &mut dx),
+                    Some(true)
+                );
+                let mut plain = vec![0.0; 8];
+                assert!(field.eval(&q, &mut plain));
+                assert_eq!(x, plain, "same X_Q as eval");
+                let h = 1e-6;
+                let (mut xp, mut xm) = (vec![0.0; 8], vec![0.0; 8]);
+                let qp: Vec<f64> = q.iter().zip(&delta).map(|(a, d)| a + h * d).collect();
+                let qm: Vec<f64> = q.iter().zip(&delta).map(|(a, d)| a - h * d).collect();
+                assert!(field.eval(&qp, &mut xp) && field.eval(&qm, &mut xm));
+                for i in 0..8 {
+                    let fd = (xp[i] - xm[i]) / (2.0 * h);
+                    assert!(
+                        (dx[i] - fd).abs() < 1e-6 * fd.abs().max(1.0),
+                        "{i}: {} vs {fd}",
+                        dx[i]
+                    );
+                }
+            }
+        }
+    }
 }

@@ -8,8 +8,9 @@
 //!
 //! The differential of the flow map, needed to transform velocities
 //! (`q̇ ↦ dΦ_g|_q q̇`), is integrated together with it from the variational equation
-//! `dδ/dt = dX|_γ δ`, `δ(0) = v`, where `dX|_γ δ` is a central (or forward) difference
-//! of the field along `δ` at the same point (no step-sequence noise).
+//! `dδ/dt = dX|_γ δ`, `δ(0) = v`, where `dX|_γ δ` is the field's closed-form derivative
+//! ([`VectorField::eval_derivative`], e.g. of a lifted field) or else a central (or
+//! forward) difference of the field along `δ` at the same point (no step-sequence noise).
 //!
 //! An orbit sampled at several group elements `exp(t_1 ξ), exp(t_2 ξ), …` is one
 //! integration through the checkpoints `t_i` ([`integrate_through`]), not one flow per
@@ -372,7 +373,9 @@ pub fn integrate_through(
 }
 
 /// The field `(y, δ) ↦ (X(y), dX|_y δ)` on `R^{2d}` whose flow carries the flow map's
-/// differential (variational equation). Uses interior scratch; not thread-safe.
+/// differential (variational equation): `dX|_y δ` in closed form when the field provides
+/// it ([`VectorField::eval_derivative`]), else by finite differences with step `h`.
+/// Uses interior scratch; not thread-safe.
 pub struct VariationalField<'a> {
     field: &'a dyn VectorField,
     h: f64,
@@ -411,6 +414,9 @@ impl VectorField for VariationalField<'_> {
         let d = self.field.dim();
         let (y, delta) = p.split_at(d);
         let (oy, od) = out.split_at_mut(d);
+        if let Some(defined) = self.field.eval_derivative(y, delta, oy, od) {
+            return defined;
+        }
         if !self.field.eval(y, oy) {
             return false;
         }

@@ -68,7 +68,24 @@ pub enum LiftError {
 pub struct LiftedField<'a, F: VectorField> {
     kin: &'a Kinematics,
     task: F,
-    scratch: RefCell<(KinematicsWorkspace, Vec<f64>)>,
+    scratch: RefCell<LiftScratch>,
+}
+
+/// Interior scratch of a [`LiftedField`] (allocated once in [`LiftedField::new`]).
+struct LiftScratch {
+    ws: KinematicsWorkspace,
+    /// Task velocity `v(f(q))`, then the residual `r` of the derivative (m).
+    xdot: Vec<f64>,
+    /// `J δ` and the task field's derivative along it (m).
+    xp: Vec<f64>,
+    vp: Vec<f64>,
+    /// Multiplier `u = S⁻¹ v` (m).
+    u: Vec<f64>,
+    /// `J'ᵀ u`, then `g = M⁻¹ J'ᵀ u` (n).
+    jtu: Vec<f64>,
+    g: Vec<f64>,
+    /// Probe point of the task field's central difference (m).
+    probe: Vec<f64>,
 }
 
 impl<'a, F: VectorField> LiftedField<'a, F> {
@@ -79,11 +96,20 @@ impl<'a, F: VectorField> LiftedField<'a, F> {
             kin.task_dim(),
             "task field dimension differs from dim X"
         );
-        let ws = kin.workspace();
+        let (m, n) = (kin.task_dim(), kin.dof());
         Self {
             kin,
             task,
-            scratch: RefCell::new((ws, vec![0.0; kin.task_dim()])),
+            scratch: RefCell::new(LiftScratch {
+                ws: kin.workspace(),
+                xdot: vec![0.0; m],
+                xp: vec![0.0; m],
+                vp: vec![0.0; m],
+                u: vec![0.0; m],
+                jtu: vec![0.0; n],
+                g: vec![0.0; n],
+                probe: vec![0.0; m],
+            }),
         }
     }
 
@@ -102,7 +128,7 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
             return false;
         }
         let mut s = self.scratch.borrow_mut();
-        let (ws, xdot) = &mut *s;
+        let LiftScratch { ws, xdot, .. } = &mut *s;
         self.kin.jacobian(q, ws);
         if !self.task.eval(ws.x.as_slice(), xdot) {
             return false;
@@ -113,6 +139,102 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
         }
         self.kin.solve(ws, xdot, out);
         true
+    }
+
+    /// Closed form of `dX_Q|_q δ` for `X_Q = W Jᵀ u`, `u = S⁻¹ v(f(q))`,
+    /// `S = J W Jᵀ + λ²I`, `W = M⁻¹`: with `J' = dJ[δ]`, `g = W J'ᵀ u`,
+    ///
+    /// `dX_Q δ = g + W Jᵀ S⁻¹ (dv[J δ] − J' X_Q − J g)`
+    ///
+    /// (the derivative of `S⁻¹` is `−S⁻¹ S' S⁻¹` with `S' = J' W Jᵀ + J W J'ᵀ`). One FK,
+    /// Jacobian and factorisation serve both `X_Q` and its derivative. The task field's
+    /// derivative is its own closed form, or a central difference along `J δ`.
+    fn eval_derivative(
+        &self,
+        q: &[f64],
+        delta: &[f64],
+        out: &mut [f64],
+        out_d: &mut [f64],
+    ) -> Option<bool> {
+        if q.iter().chain(delta).any(|v| !v.is_finite()) {
+            return Some(false);
+        }
+        let mut s = self.scratch.borrow_mut();
+        let LiftScratch {
+            ws,
+            xdot,
+            xp,
+            vp,
+            u,
+            jtu,
+            g,
+            probe,
+        } = &mut *s;
+        let kin = self.kin;
+        kin.jacobian(q, ws);
+        let (m, n) = (xp.len(), out.len());
+        xp.fill(0.0);
+        for (col, &d) in ws.jac.as_slice().chunks_exact(m).zip(delta) {
+            for (x, j) in xp.iter_mut().zip(col) {
+                *x += j * d;
+            }
+        }
+        // v(f(q)) and dv[J δ]: closed form, or a central difference along J δ.
+        let x = ws.x.as_slice();
+        if self.task.eval_derivative(x, xp, xdot, vp).is_none() {
+            if !self.task.eval(x, xdot) {
+                return Some(false);
+            }
+            let norm = xp.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if norm == 0.0 {
+                vp.fill(0.0);
+            } else {
+                let xn = x.iter().map(|a| a * a).sum::<f64>().sqrt();
+                let h = 1e-5 * xn.max(1.0) / norm;
+                // `u` takes the second probe's value (it is computed below).
+                for i in 0..m {
+                    probe[i] = x[i] + h * xp[i];
+                }
+                if !self.task.eval(probe, vp) {
+                    return Some(false);
+                }
+                for i in 0..m {
+                    probe[i] = x[i] - h * xp[i];
+                }
+                if !self.task.eval(probe, u) {
+                    return Some(false);
+                }
+                for i in 0..m {
+                    vp[i] = (vp[i] - u[i]) / (2.0 * h);
+                }
+            }
+        }
+        if kin.factor(ws).status != PinvStatus::Regular {
+            return Some(false);
+        }
+        kin.solve(ws, xdot, out);
+        u.copy_from_slice(kin.pinv().multiplier(&ws.pinv));
+        kin.jacobian_derivative(delta, ws);
+        // Column-major slices of J and J' (entry (r, c) at r + c·m).
+        let (jac, jdot) = (ws.jac.as_slice(), ws.jac_dot.as_slice());
+        // g = W J'ᵀ u; r = dv[Jδ] − J' X − J g (into xdot); out_d = g + W Jᵀ S⁻¹ r.
+        for (t, col) in jtu.iter_mut().zip(jdot.chunks_exact(m)) {
+            *t = col.iter().zip(u.iter()).map(|(a, b)| a * b).sum();
+        }
+        kin.pinv().apply_metric_inverse(jtu, g);
+        xdot.copy_from_slice(vp);
+        for c in 0..n {
+            let (jc, jdc) = (&jac[c * m..(c + 1) * m], &jdot[c * m..(c + 1) * m]);
+            let (xc, gc) = (out[c], g[c]);
+            for r in 0..m {
+                xdot[r] -= jdc[r] * xc + jc[r] * gc;
+            }
+        }
+        kin.solve(ws, xdot, out_d);
+        for (o, gi) in out_d.iter_mut().zip(g.iter()) {
+            *o += gi;
+        }
+        Some(true)
     }
 }
 
@@ -242,8 +364,8 @@ impl<'a> LiftedAction<'a> {
     ) -> Result<FlowStatus, LiftError> {
         let n = self.kin.dof();
         let field = LiftedField::new(self.kin, self.action.generator_field(xi));
-        // Forward-difference directional derivatives and step control on the positions:
-        // one extra field evaluation per stage (the tangent follows the positions' steps).
+        // The lifted field's closed-form derivative (forward differences only for fields
+        // without one) and step control on the positions (the tangent follows their steps).
         let var = VariationalField::forward(&field, self.fd_step);
         ws.y0[..n].copy_from_slice(q);
         ws.y0[n..].copy_from_slice(qdot);
