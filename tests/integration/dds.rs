@@ -559,7 +559,15 @@ fn rby1_demo(config: &str, conditions: &[&str], domain: u16, name: &str) {
     cmd.arg("demo")
         .arg("--config")
         .arg(common::root().join("config").join(config))
-        .args(["--duration-s", "1.5", "--no-isolation", "--out"])
+        // 3 mm for the loop's sampling delay (10 ms at up to 0.3 m/s).
+        .args([
+            "--duration-s",
+            "1.5",
+            "--max-excess",
+            "0.003",
+            "--no-isolation",
+            "--out",
+        ])
         .arg(&dir)
         .env("ROS_DOMAIN_ID", domain.to_string());
     for c in conditions {

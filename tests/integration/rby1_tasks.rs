@@ -85,10 +85,17 @@ fn reach_demonstrations_end_at_the_goal_and_the_other_arm_rests() {
             // The left arm holds its rest posture (within the tracking's damping).
             assert!(dist(&d.x(i)[..3], &first[..3]) < 1e-6);
         }
-        // Minimum jerk: starts and ends at rest.
+        // Minimum jerk, its first 0.45 s dropped: starts moving (a first-order policy
+        // cannot leave a rest point), ends at rest.
         let speed = |i: usize| d.qdot(i).iter().map(|v| v * v).sum::<f64>().sqrt();
-        assert!(speed(0) < 0.05 && speed(d.len() - 1) < 0.05);
-        assert!((0..d.len()).map(speed).fold(0.0, f64::max) > 0.2);
+        let peak = (0..d.len()).map(speed).fold(0.0, f64::max);
+        assert!(peak > 0.2, "peak joint speed {peak}");
+        assert!(
+            speed(0) > 0.1 * peak,
+            "start speed {} of peak {peak}",
+            speed(0)
+        );
+        assert!(speed(d.len() - 1) < 0.05);
     }
     // The two demonstrations take different paths.
     let (a, b) = (&demos.demos[0], &demos.demos[1]);
