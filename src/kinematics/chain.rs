@@ -321,6 +321,44 @@ impl Chain {
     /// (rad or m per joint) at the `q` of the last [`Chain::jacobian`] call; column `i`
     /// is then [`ChainWorkspace::jacobian_dot`]`(i)`. Allocation-free.
     ///
+    /// On a planar two-link arm (links 1, joints about z) the tip is
+    /// `p = (c₁ + c₁₂, s₁ + s₁₂)`, the Jacobian's first column `(−s₁ − s₁₂, c₁ + c₁₂)`,
+    /// and its derivative along `δ = (1, 0)` is `(−c₁ − c₁₂, −s₁ − s₁₂)`:
+    ///
+    /// ```
+    /// use std::collections::HashMap;
+    /// use crossym::kinematics::{Chain, ChainSpec, RobotModel, TaskSpace, ToolOffset};
+    ///
+    /// let urdf = r#"<robot name="two_link">
+    ///   <link name="base"/><link name="l1"/><link name="tip"/>
+    ///   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    ///     <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+    ///   <joint name="j2" type="revolute"><parent link="l1"/><child link="tip"/>
+    ///     <origin xyz="1 0 0"/><axis xyz="0 0 1"/>
+    ///     <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+    /// </robot>"#;
+    /// let model = RobotModel::from_urdf_str(urdf, "doc")?;
+    /// let spec = ChainSpec {
+    ///     name: "arm".into(),
+    ///     base: "base".into(),
+    ///     tip: "tip".into(),
+    ///     tool: ToolOffset { xyz: [1.0, 0.0, 0.0], rpy: [0.0; 3] },
+    ///     task: TaskSpace::Xy,
+    /// };
+    /// let chain = Chain::new(&model, &spec, &HashMap::new())?;
+    /// let mut ws = chain.workspace();
+    /// let (q1, q2) = (0.3f64, 0.8f64);
+    /// chain.jacobian(&[q1, q2], &mut ws);
+    /// let p = ws.tip.translation.vector;
+    /// assert!((p.x - (q1.cos() + (q1 + q2).cos())).abs() < 1e-12);
+    /// assert!((p.y - (q1.sin() + (q1 + q2).sin())).abs() < 1e-12);
+    /// chain.position_jacobian_derivative(&[1.0, 0.0], &mut ws);
+    /// let d = ws.jacobian_dot(0);
+    /// assert!((d.x + q1.cos() + (q1 + q2).cos()).abs() < 1e-12);
+    /// assert!((d.y + q1.sin() + (q1 + q2).sin()).abs() < 1e-12);
+    /// # Ok::<(), crossym::kinematics::KinematicsError>(())
+    /// ```
+    ///
     /// With `ω_i = Σ_{k<i, revolute} δ_k z_k`, joint `i`'s axis and origin move as
     /// `ż_i = ω_i × z_i`, `ṗ_i = Σ_{k<i} J_k^{(p_i)} δ_k = ω_i × p_i − Σ_{k<i, rev.} δ_k z_k × p_k
     /// + Σ_{k<i, prism.} δ_k z_k`, the tip as `ṗ = J_p δ`, so the columns

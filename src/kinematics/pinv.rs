@@ -133,6 +133,34 @@ pub struct JacobianBlock {
 }
 
 /// The configured pseudo-inverse: metric, damping and singularity threshold.
+///
+/// Undamped, `J⁺ = M⁻¹Jᵀ(J M⁻¹ Jᵀ)⁻¹` is a right inverse of `J` (paper eq. 13), and its
+/// output is the `M`-minimum-norm solution: it lies in the range of `M⁻¹Jᵀ`.
+///
+/// ```
+/// use crossym::kinematics::{DampedPinv, Metric, PinvStatus};
+/// use nalgebra::DMatrix;
+///
+/// // J (2 × 3) and M = diag(1, 2, 4).
+/// let j = DMatrix::from_row_slice(2, 3, &[1.0, 0.5, 0.0, 0.0, 1.0, 2.0]);
+/// let pinv = DampedPinv::new(Metric::diagonal(&[1.0, 2.0, 4.0])?, 0.0, 1e-9)?;
+/// let mut ws = pinv.workspace(2);
+/// assert_eq!(pinv.factor(&j, &mut ws).status, PinvStatus::Regular);
+/// let xdot = [0.3, -0.7];
+/// let mut qdot = [0.0; 3];
+/// pinv.solve(&mut ws, &xdot, &mut qdot);
+/// // J J⁺ ẋ = ẋ.
+/// let back = &j * nalgebra::DVector::from_column_slice(&qdot);
+/// assert!((back[0] - 0.3).abs() < 1e-12 && (back[1] + 0.7).abs() < 1e-12);
+/// // q̇ = M⁻¹ Jᵀ u for the multiplier u = (J M⁻¹ Jᵀ)⁻¹ ẋ.
+/// let u = pinv.multiplier(&ws);
+/// let w = [1.0, 0.5, 0.25];
+/// for c in 0..3 {
+///     let want = w[c] * (j[(0, c)] * u[0] + j[(1, c)] * u[1]);
+///     assert!((qdot[c] - want).abs() < 1e-12);
+/// }
+/// # Ok::<(), crossym::kinematics::KinematicsError>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct DampedPinv {
     metric: Metric,

@@ -212,6 +212,28 @@ pub fn integrate(
 /// Integrates `dy/dt = X(y)` from `y0` through the checkpoints `ts` and calls
 /// `visit(i, y(ts[i]))` at each one reached. Allocation-free.
 ///
+/// The orbit of a point under the flow of the rotation generator `(x, y) ↦ (−y, x)` is
+/// `exp(tξ)·p` (eq. 7), a rotation by `t`:
+///
+/// ```
+/// use crossym::symmetry::field::FnField;
+/// use crossym::symmetry::transfer::flow::{integrate_through, FlowSettings, FlowWorkspace};
+///
+/// let rot = FnField::new(2, |p: &[f64], o: &mut [f64]| {
+///     o[0] = -p[1];
+///     o[1] = p[0];
+/// });
+/// let angles = [0.5, 1.0, 2.0, 3.0];
+/// let mut ws = FlowWorkspace::new(2);
+/// let mut orbit = Vec::new();
+/// let status = integrate_through(&rot, &angles, &[1.0, 0.0], &FlowSettings::default(), &mut ws,
+///     &mut |i, p| orbit.push((angles[i], p[0], p[1])));
+/// assert!(status.is_done());
+/// for (t, x, y) in orbit {
+///     assert!((x - t.cos()).abs() < 1e-8 && (y - t.sin()).abs() < 1e-8);
+/// }
+/// ```
+///
 /// The checkpoints lie on one side of 0 with `|ts[i]|` non-decreasing (e.g. the angles
 /// `30°, 60°, …` of one orbit); anything else is reported as
 /// [`FlowStatus::NonFinite`] at `t = 0` without integrating. Steps are shortened to land
