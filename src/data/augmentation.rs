@@ -523,8 +523,12 @@ impl<'a> Augmenter<'a> {
                 // One flow out from θ = 0 in each direction through the grid's angles,
                 // up to the first angle an earlier sample already lost.
                 for (ts, idx) in [(&ts_pos, &idx_pos), (&ts_neg, &idx_neg)] {
-                    let reach = idx.iter().position(|&k| failed[k].is_some());
-                    let live = reach.unwrap_or(idx.len());
+                    // Angles from the first lost one outwards are all marked lost.
+                    let live = idx
+                        .iter()
+                        .position(|&k| failed[k].is_some())
+                        .unwrap_or(idx.len());
+                    let mut reached = 0;
                     let st = self.rotation.act_with_differential_through(
                         &[1.0],
                         &ts[..live],
@@ -534,21 +538,14 @@ impl<'a> Augmenter<'a> {
                         &mut |j, qa, va| {
                             q_out[idx[j]].extend_from_slice(qa);
                             v_out[idx[j]].extend_from_slice(va);
+                            reached = j + 1;
                         },
                     );
                     // Every angle further out than a failure is unreachable for this
                     // sample too.
-                    let lost = match st {
-                        Ok(_) => reach.map(|r| (r, DropReason::Singular)),
-                        Err(e) => Some((
-                            idx.iter()
-                                .position(|&k| q_out[k].len() < (i + 1) * n)
-                                .unwrap_or(live),
-                            reason(&e),
-                        )),
-                    };
-                    if let Some((from, r)) = lost {
-                        for &k in &idx[from..] {
+                    if let Err(e) = st {
+                        let r = reason(&e);
+                        for &k in &idx[reached..] {
                             failed[k].get_or_insert(r);
                         }
                     }

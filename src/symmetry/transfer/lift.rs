@@ -23,7 +23,7 @@
 use std::cell::RefCell;
 
 use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
-use crate::symmetry::field::{lie_bracket, VectorField};
+use crate::symmetry::field::{lie_bracket, VectorField, DEFAULT_FD_STEP};
 use crate::symmetry::lie::TaskGroupAction;
 use crate::symmetry::transfer::flow::{
     integrate, integrate_through, FlowSettings, FlowStatus, FlowWorkspace, VariationalField,
@@ -254,7 +254,6 @@ pub struct LiftedAction<'a> {
     kin: &'a Kinematics,
     action: &'a dyn TaskGroupAction,
     settings: FlowSettings,
-    fd_step: f64,
 }
 
 impl<'a> LiftedAction<'a> {
@@ -277,7 +276,6 @@ impl<'a> LiftedAction<'a> {
             kin,
             action,
             settings,
-            fd_step: 1e-8,
         })
     }
 
@@ -364,9 +362,10 @@ impl<'a> LiftedAction<'a> {
     ) -> Result<FlowStatus, LiftError> {
         let n = self.kin.dof();
         let field = LiftedField::new(self.kin, self.action.generator_field(xi));
-        // The lifted field's closed-form derivative (forward differences only for fields
-        // without one) and step control on the positions (the tangent follows their steps).
-        let var = VariationalField::forward(&field, self.fd_step);
+        // The lifted field has a closed-form derivative (`eval_derivative`), so the
+        // difference step is never used; step control on the positions (the tangent
+        // follows their steps).
+        let var = VariationalField::new(&field, DEFAULT_FD_STEP);
         ws.y0[..n].copy_from_slice(q);
         ws.y0[n..].copy_from_slice(qdot);
         let settings = FlowSettings {
