@@ -667,9 +667,32 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
         loaded.push((label, policy));
     }
     let p = pipeline(&cfg, kin, (false, true))?;
-    let mut md =
-        String::from("| Policy | Original | G_R | G_RT | G_MRT |\n|---|---|---|---|---|\n");
-    let mut csv = String::from("policy,test_set,mean_rmse,std_rmse,count,diverged\n");
+    // The training demonstrations under the test grid: the no-learning reference.
+    let aug = cfg.augmentation.as_ref().expect("checked by pipeline");
+    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
+    let reference =
+        crossym::data::augmentation::letter_augmenter(kin, &built, &cfg.composition.order)
+            .map_err(anyhow::Error::msg)?
+            .augment(&p.demos.select(&p.demos.train), &aug.test, &|| {});
+    let m = kin.task_dim();
+    let header = "| Policy | Original | G_R | G_RT | G_MRT |\n|---|---|---|---|---|\n";
+    // Per-coordinate rows (primary) and Euclidean rows, filled side by side.
+    let (mut md, mut md_euclid) = (String::from(header), String::from(header));
+    let mut csv = String::from(
+        "policy,test_set,mean_rmse,std_rmse,count,diverged,mean_rmse_per_coordinate,std_rmse_per_coordinate\n",
+    );
+    let cell_text = |c: &crossym::eval::Cell| {
+        format!(
+            " {:.3} ± {:.3}{} |",
+            c.mean,
+            c.std,
+            if c.diverged > 0 {
+                format!(" ({} div.)", c.diverged)
+            } else {
+                String::new()
+            }
+        )
+    };
     let chain_cols: Vec<String> = kin
         .chains()
         .iter()
@@ -682,47 +705,80 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
     let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
     let view = cfg.eval.view.unwrap_or(XY_VIEW);
     let first_demo = p.demos.test.first().copied();
-    for (label, policy) in &loaded {
-        let mut row = format!("| {label} |");
-        for g in SubGroup::ALL {
-            let set: Vec<_> = p
-                .test
-                .subset(g)
-                .into_iter()
-                .map(|a| (&a.traj, a.condition))
-                .collect();
-            let c = crossym::eval::evaluate(policy, kin, &set, &cfg.eval);
-            if c.count == 0 {
+    // One table row per scorer: a policy, or a reference built from the training demos.
+    let mut add_row = |label: &str, cells: &[Option<crossym::eval::Cell>]| {
+        let (mut row, mut row_e) = (format!("| {label} |"), format!("| {label} |"));
+        for (g, c) in SubGroup::ALL.iter().zip(cells) {
+            let Some(c) = c.filter(|c| c.count > 0) else {
                 row.push_str(" – |");
-                let _ = writeln!(csv, "{label},{},,,0,0", g.label());
+                row_e.push_str(" – |");
+                let _ = writeln!(csv, "{label},{},,,0,0,,", g.label());
                 continue;
-            }
-            let _ = write!(
-                row,
-                " {:.3} ± {:.3}{} |",
-                c.mean,
-                c.std,
-                if c.diverged > 0 {
-                    format!(" ({} div.)", c.diverged)
-                } else {
-                    String::new()
-                }
-            );
+            };
+            let pc = c.per_coordinate(m);
+            row.push_str(&cell_text(&pc));
+            row_e.push_str(&cell_text(&c));
             let _ = writeln!(
                 csv,
-                "{label},{},{},{},{},{}",
+                "{label},{},{},{},{},{},{},{}",
                 g.label(),
                 c.mean,
                 c.std,
                 c.count,
-                c.diverged
+                c.diverged,
+                pc.mean,
+                pc.std
             );
         }
         println!("{row}");
-        md.push_str(&row);
-        md.push('\n');
+        for (table, r) in [(&mut md, row), (&mut md_euclid, row_e)] {
+            table.push_str(&r);
+            table.push('\n');
+        }
+    };
+    for (label, policy) in &loaded {
+        let cells: Vec<_> = SubGroup::ALL
+            .iter()
+            .map(|&g| {
+                let set: Vec<_> = p
+                    .test
+                    .subset(g)
+                    .into_iter()
+                    .map(|a| (&a.traj, a.condition))
+                    .collect();
+                Some(crossym::eval::evaluate(policy, kin, &set, &cfg.eval))
+            })
+            .collect();
+        add_row(label, &cells);
+    }
+    // References: each test trajectory against the training demos under its condition.
+    let mut nearest = Vec::new();
+    let mut mean = Vec::new();
+    for g in SubGroup::ALL {
+        let (mut sn, mut sm) = (Vec::new(), Vec::new());
+        for t in p.test.subset(g) {
+            let refs: Vec<_> = reference
+                .trajectories
+                .iter()
+                .filter(|r| r.condition == t.condition)
+                .map(|r| &r.traj)
+                .collect();
+            if let Some((n, a)) = crossym::eval::demo_reference(&t.traj, &refs) {
+                let score = |rmse| crossym::eval::RolloutScore {
+                    rmse,
+                    diverged: false,
+                };
+                sn.push(score(n));
+                sm.push(score(a));
+            }
+        }
+        nearest.push(Some(crossym::eval::Cell::from_scores(&sn)));
+        mean.push(Some(crossym::eval::Cell::from_scores(&sm)));
+    }
+    add_row("reference: nearest training demo", &nearest);
+    add_row("reference: mean of training demos", &mean);
+    for (label, policy) in &loaded {
         // Per condition (over the test demonstrations).
-        let aug = cfg.augmentation.as_ref().expect("checked by pipeline");
         for cond in aug.test.conditions() {
             let set: Vec<_> = p
                 .test
@@ -810,10 +866,17 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
             write_paths_grid(&png, &panels, panels.len(), 360).map_err(anyhow::Error::msg)?;
         }
     }
-    md.push_str(
-        "\nRMSE in task units between the policy rollout and the nominal trajectory from the \
-         same initial configuration, both arms stacked, mean ± std over the test trajectories \
-         (diverged rollouts included and counted). Figures `trajectories_<policy>.png`: one \
+    let _ = write!(
+        md,
+        "\nRMSE per coordinate (task units) between the policy rollout and the nominal \
+         trajectory from the same initial configuration, `√(mean over samples and the {m} \
+         task coordinates of the squared error)`, mean ± std over the test trajectories \
+         (diverged rollouts included and counted). The reference rows involve no policy: \
+         each test trajectory against the training demonstrations transformed by the same \
+         condition (the nearest one; their sample-wise mean).\n\n\
+         The same in the Euclidean convention, `√(mean over samples of ‖x̂ − x‖²)` with all \
+         arms stacked (= per coordinate × √{m}):\n\n{md_euclid}\n\
+         Figures `trajectories_<policy>.png`: one \
          panel per test set (Original, G_R, G_RT, G_MRT), up to 6 of the conditions it adds \
          to the previous set (rotations, scalings, reflection) on the first test \
          demonstration; grey nominal, colour rollout (blue left arm, red right).\n",

@@ -4,8 +4,20 @@
 //! out from the same initial configuration, `q̂_{k+1} = q̂_k + Δt π(q̂_k, s)`, and compared
 //! in task space: `RMSE = √(1/(T+1) Σ_k ‖f(q̂_k) − x_k‖²)` (both arms stacked, task units).
 //! A rollout *diverges* when it becomes non-finite or its task error exceeds a threshold
-//! (default 3.0, the width of the normalised letter box); diverging rollouts stay in the
-//! mean ± std, as in the paper, and are counted.
+//! (default 3.0, the width of the normalised letter box); diverging rollouts are scored on
+//! their whole path (not capped at the threshold), stay in the mean ± std, as in the paper,
+//! and are counted.
+//!
+//! Units. The paper does not define its RMSE; Table II is reported in two conventions that
+//! differ by the constant `√m` (`m` task coordinates, 4 for the planar dual arm):
+//! the Euclidean one above (both arms stacked) and the per-coordinate one
+//! `√(1/((T+1)·m) Σ_k ‖f(q̂_k) − x_k‖²)` (numpy's `sqrt(mean((a − b)**2))` over a `T × m`
+//! array), see [`Cell::per_coordinate`].
+//!
+//! Reference without learning ([`demo_reference`]): the test trajectory scored against the
+//! *training* demonstrations transformed by the same condition, the nearest one and their
+//! sample-wise mean. A policy that memorised the closest demonstration would score the
+//! former; it calibrates what the test demonstrations' own variability allows.
 
 pub mod plot;
 
@@ -59,6 +71,10 @@ pub struct RolloutScore {
 }
 
 /// Rolls `policy` out from the trajectory's first configuration and scores it.
+///
+/// The rollout runs for the whole trajectory even after it diverged, so a diverged
+/// rollout's RMSE is its real error; only once it turns non-finite does integration stop,
+/// its last finite error standing for the remaining samples.
 pub fn score(
     policy: &Policy,
     kin: &Kinematics,
@@ -74,11 +90,10 @@ pub fn score(
     let mut v = vec![0.0; n];
     let mut sum = 0.0;
     let mut diverged = false;
+    let mut finite = true;
     let mut last_err = 0.0;
     for k in 0..=steps {
-        let err = if diverged {
-            last_err
-        } else {
+        if finite {
             let x = kin.forward(&q, &mut kws);
             let e = x
                 .iter()
@@ -86,16 +101,16 @@ pub fn score(
                 .map(|(a, b)| (a - b) * (a - b))
                 .sum::<f64>()
                 .sqrt();
-            if !e.is_finite() || e > cfg.divergence_threshold {
-                diverged = true;
-            }
             if e.is_finite() {
                 last_err = e;
+                diverged |= e > cfg.divergence_threshold;
+            } else {
+                finite = false;
+                diverged = true;
             }
-            last_err
-        };
-        sum += err * err;
-        if k < steps && !diverged {
+        }
+        sum += last_err * last_err;
+        if k < steps && finite {
             policy.velocity(&q, s, &mut v, &mut ws);
             for j in 0..n {
                 q[j] += traj.dt * v[j];
@@ -192,7 +207,53 @@ pub fn evaluate(
     Cell::from_scores(&scores)
 }
 
+/// Task-space RMSE of a nominal path `x` against a reference path `r` (row-major, `m`
+/// coordinates per sample), over their common length (task units, Euclidean as above).
+pub fn path_rmse(x: &[f64], r: &[f64], m: usize) -> f64 {
+    let len = x.len().min(r.len()) / m.max(1);
+    if len == 0 {
+        return f64::NAN;
+    }
+    let sum: f64 = x[..len * m]
+        .iter()
+        .zip(&r[..len * m])
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum();
+    (sum / len as f64).sqrt()
+}
+
+/// Scores of a test trajectory against reference trajectories with the same condition
+/// (task units): `(nearest, mean)`, the RMSE to the closest reference and to the
+/// sample-wise mean of all references (over their common length). `None` without
+/// references.
+pub fn demo_reference(test: &JointTrajectory, refs: &[&JointTrajectory]) -> Option<(f64, f64)> {
+    let m = test.m;
+    let len = refs.iter().map(|r| r.len()).min()?.min(test.len());
+    let nearest = refs
+        .iter()
+        .map(|r| path_rmse(&test.x, &r.x, m))
+        .fold(f64::INFINITY, f64::min);
+    let mut mean = vec![0.0; len * m];
+    for r in refs {
+        for (acc, v) in mean.iter_mut().zip(&r.x) {
+            *acc += v / refs.len() as f64;
+        }
+    }
+    Some((nearest, path_rmse(&test.x, &mean, m)))
+}
+
 impl Cell {
+    /// The cell in the per-coordinate convention: every RMSE divided by `√m` (`m` task
+    /// coordinates), which is exact because `m` is the same for every trajectory.
+    pub fn per_coordinate(self, m: usize) -> Self {
+        let k = (m.max(1) as f64).sqrt();
+        Cell {
+            mean: self.mean / k,
+            std: self.std / k,
+            ..self
+        }
+    }
+
     /// Mean ± std (population) of the scores' RMSE, with the divergence count.
     pub fn from_scores(scores: &[RolloutScore]) -> Self {
         let count = scores.len();

@@ -104,6 +104,20 @@ fn runaway_policy_is_counted_as_diverged() {
         },
     );
     assert!(sc.diverged && sc.rmse.is_finite(), "{sc:?}");
+    // The threshold only labels the rollout: its whole path is scored, not capped there.
+    let uncapped = score(
+        &wild,
+        kin,
+        &traj,
+        &s,
+        &EvalConfig {
+            divergence_threshold: 1e9,
+            ..EvalConfig::default()
+        },
+    );
+    assert!(!uncapped.diverged, "{uncapped:?}");
+    assert_eq!(uncapped.rmse, sc.rmse);
+    assert!(sc.rmse > 1.0, "{sc:?}");
 }
 
 #[test]
@@ -124,4 +138,46 @@ fn per_arm_rmse_splits_the_stacked_error() {
     path[(traj.len() - 1) * traj.m + 2] = f64::NAN;
     let r = crossym::eval::chain_rmse(kin, traj, &path);
     assert!((r[1] - 0.5).abs() < 1e-12, "{r:?}");
+}
+
+#[test]
+fn demo_reference_finds_the_nearest_demo_and_scores_against_the_mean() {
+    let (_, _, demos) = common::task("letters.toml");
+    let test = &demos.demos[0];
+    // Two references: the test path shifted by (0.3, 0.4) in every coordinate pair, and by
+    // (0.6, 0.8): nearest RMSE √2·0.5 (two arms), mean-path RMSE √2·0.75.
+    let shifted = |a: f64, b: f64| {
+        let mut t = test.clone();
+        for k in 0..t.len() {
+            for arm in 0..2 {
+                t.x[k * t.m + 2 * arm] += a;
+                t.x[k * t.m + 2 * arm + 1] += b;
+            }
+        }
+        t
+    };
+    let (r1, r2) = (shifted(0.3, 0.4), shifted(0.6, 0.8));
+    let (nearest, mean) = crossym::eval::demo_reference(test, &[&r2, &r1]).unwrap();
+    let s2 = std::f64::consts::SQRT_2;
+    assert!((nearest - s2 * 0.5).abs() < 1e-12, "{nearest}");
+    assert!((mean - s2 * 0.75).abs() < 1e-12, "{mean}");
+    assert!(crossym::eval::demo_reference(test, &[]).is_none());
+    // Per coordinate: the same error spread over the 4 coordinates, divided by √4.
+    let sc = |rmse| crossym::eval::RolloutScore {
+        rmse,
+        diverged: false,
+    };
+    let cell = crossym::eval::Cell::from_scores(&[sc(nearest), sc(mean)]);
+    let pc = cell.per_coordinate(test.m);
+    assert!((pc.mean - cell.mean / 2.0).abs() < 1e-12 && (pc.std - cell.std / 2.0).abs() < 1e-12);
+    assert_eq!((pc.count, pc.diverged), (2, 0));
+    // Per coordinate equals numpy's sqrt(mean((a - b)**2)) over the T × m array.
+    let flat: f64 = test
+        .x
+        .iter()
+        .zip(&r1.x)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        / test.x.len() as f64;
+    assert!((flat.sqrt() - nearest / 2.0).abs() < 1e-12);
 }
