@@ -216,3 +216,95 @@ fn broken_letter_configs_are_refused_with_reasons() {
     bad.arms[0].rest = vec![0.0; 3];
     assert!(bad.build(&robot.kinematics, &cfg.base_dir).is_err());
 }
+
+/// An orbit that stops partway (here: the flow runs out of its step budget before ±180°)
+/// keeps the angles it reached, exactly as a full orbit gives them, and drops every angle
+/// further out, for both reflections, with the reason.
+#[test]
+fn an_orbit_that_fails_partway_keeps_what_it_reached() {
+    use crossym::data::augmentation::{Augmenter, DropReason};
+    use crossym::symmetry::transfer::flow::FlowSettings;
+    use crossym::symmetry::transfer::lift::LiftedAction;
+    let cfg = letters_config();
+    let robot = cfg.load_robot().unwrap();
+    let kin = &robot.kinematics;
+    let mut demo = cfg
+        .letters
+        .as_ref()
+        .unwrap()
+        .build(kin, &cfg.base_dir)
+        .unwrap()
+        .demos
+        .remove(0);
+    // Three samples keep it fast.
+    let keep = [0, 400, 800];
+    let pick = |v: &[f64], w: usize| -> Vec<f64> {
+        keep.iter()
+            .flat_map(|&i| v[i * w..(i + 1) * w].to_vec())
+            .collect()
+    };
+    demo.q = pick(&demo.q, 8);
+    demo.qdot = pick(&demo.qdot, 8);
+    demo.x = pick(&demo.x, 4);
+    let (built, _) = build(kin, &cfg.symmetries).unwrap();
+    let (rho, rot, _) = letter_group(&built, &cfg.composition.order).unwrap();
+    let grid = GroupGrid {
+        rotation_step_deg: Some(30.0),
+        scales: vec![1.0],
+        reflection: true,
+        max_rotation_deg: None,
+        conditions: None,
+    };
+    let full = letter_augmenter(kin, &built, &cfg.composition.order)
+        .unwrap()
+        .augment_one(&demo, &grid);
+    assert_eq!((full.trajectories.len(), full.dropped.len()), (26, 0));
+    // The smallest step budget at which some angles are reached and some are not.
+    let partial = (1..200)
+        .map(|max_steps| {
+            let settings = FlowSettings {
+                rtol: 1e-7,
+                atol: 1e-9,
+                max_steps,
+                ..Default::default()
+            };
+            let lifted = LiftedAction::new(kin, rot, settings).unwrap();
+            Augmenter::new(kin, lifted, None, rho.clone())
+                .unwrap()
+                .augment_one(&demo, &grid)
+        })
+        .find(|s| s.trajectories.len() > 2 && !s.dropped.is_empty())
+        .expect("a step budget that stops the orbit partway");
+    assert_eq!(partial.trajectories.len() + partial.dropped.len(), 26);
+    assert!(partial
+        .dropped
+        .iter()
+        .all(|d| d.2 == DropReason::Integration && d.0 == demo.demo));
+    let kept = |theta: f64, sigma: i8| {
+        partial
+            .trajectories
+            .iter()
+            .find(|a| a.condition.theta == theta && a.condition.reflection == sigma)
+    };
+    for a in &partial.trajectories {
+        let c = a.condition;
+        // Both reflections share the flow, and every angle nearer to 0 was reached too.
+        assert!(kept(c.theta, -c.reflection).is_some(), "{c:?}");
+        for b in &full.trajectories {
+            let t = b.condition.theta;
+            if t * c.theta >= 0.0 && t.abs() < c.theta.abs() {
+                assert!(kept(t, c.reflection).is_some(), "{c:?} kept, {t} not");
+            }
+        }
+        // What was reached is what the full orbit gives.
+        let f = full.trajectories.iter().find(|b| b.condition == c).unwrap();
+        let err = a
+            .traj
+            .q
+            .iter()
+            .zip(&f.traj.q)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-5, "{c:?}: {err}");
+    }
+}
