@@ -736,18 +736,40 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
             table.push('\n');
         }
     };
-    for (label, policy) in &loaded {
+    // Each test trajectory rolled out once per policy: its score and per-arm RMSE, from
+    // which the sub-group cells and the per-condition rows are aggregated.
+    let scored: Vec<Vec<(crossym::eval::RolloutScore, Vec<f64>)>> = loaded
+        .iter()
+        .map(|(_, policy)| {
+            use rayon::prelude::*;
+            p.test
+                .trajectories
+                .par_iter()
+                .map(|a| {
+                    let path = crossym::eval::rollout_path(policy, kin, &a.traj, &a.condition);
+                    (
+                        crossym::eval::score_path(&a.traj, &path, &cfg.eval),
+                        crossym::eval::chain_rmse(kin, &a.traj, &path),
+                    )
+                })
+                .collect()
+        })
+        .collect();
+    let cell_where = |pi: usize, keep: &dyn Fn(&crossym::symmetry::compose::Condition) -> bool| {
+        let scores: Vec<_> = p
+            .test
+            .trajectories
+            .iter()
+            .zip(&scored[pi])
+            .filter(|(a, _)| keep(&a.condition))
+            .map(|(_, (sc, _))| *sc)
+            .collect();
+        crossym::eval::Cell::from_scores(&scores)
+    };
+    for (pi, (label, _)) in loaded.iter().enumerate() {
         let cells: Vec<_> = SubGroup::ALL
             .iter()
-            .map(|&g| {
-                let set: Vec<_> = p
-                    .test
-                    .subset(g)
-                    .into_iter()
-                    .map(|a| (&a.traj, a.condition))
-                    .collect();
-                Some(crossym::eval::evaluate(policy, kin, &set, &cfg.eval))
-            })
+            .map(|g| Some(cell_where(pi, &|c| g.contains(c))))
             .collect();
         add_row(label, &cells);
     }
@@ -777,29 +799,24 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
     }
     add_row("reference: nearest training demo", &nearest);
     add_row("reference: mean of training demos", &mean);
-    for (label, policy) in &loaded {
+    for (pi, (label, policy)) in loaded.iter().enumerate() {
         // Per condition (over the test demonstrations).
         for cond in aug.test.conditions() {
-            let set: Vec<_> = p
+            let c = cell_where(pi, &|c| *c == cond);
+            if c.count == 0 {
+                continue;
+            }
+            // Per-arm RMSE, mean over the condition's test trajectories.
+            let mut arms = vec![0.0; kin.chains().len()];
+            for (_, (_, per_arm)) in p
                 .test
                 .trajectories
                 .iter()
-                .filter(|a| a.condition == cond)
-                .map(|a| (&a.traj, a.condition))
-                .collect();
-            if set.is_empty() {
-                continue;
-            }
-            let c = crossym::eval::evaluate(policy, kin, &set, &cfg.eval);
-            // Per-arm RMSE, mean over the condition's test trajectories.
-            let mut arms = vec![0.0; kin.chains().len()];
-            for (t, s) in &set {
-                let path = crossym::eval::rollout_path(policy, kin, t, s);
-                for (a, r) in arms
-                    .iter_mut()
-                    .zip(crossym::eval::chain_rmse(kin, t, &path))
-                {
-                    *a += r / set.len() as f64;
+                .zip(&scored[pi])
+                .filter(|(a, _)| a.condition == cond)
+            {
+                for (a, r) in arms.iter_mut().zip(per_arm) {
+                    *a += r / c.count as f64;
                 }
             }
             let arms: Vec<String> = arms.iter().map(|a| a.to_string()).collect();

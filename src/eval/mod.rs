@@ -70,7 +70,8 @@ pub struct RolloutScore {
     pub diverged: bool,
 }
 
-/// Rolls `policy` out from the trajectory's first configuration and scores it.
+/// Rolls `policy` out from the trajectory's first configuration and scores it
+/// ([`rollout_path`], then [`score_path`]).
 ///
 /// The rollout runs for the whole trajectory even after it diverged, so a diverged
 /// rollout's RMSE is its real error; only once it turns non-finite does integration stop,
@@ -82,43 +83,34 @@ pub fn score(
     s: &Condition,
     cfg: &EvalConfig,
 ) -> RolloutScore {
-    let n = traj.n;
-    let steps = traj.len().saturating_sub(1);
-    let mut ws = policy.workspace();
-    let mut kws = kin.workspace();
-    let mut q = traj.q(0).to_vec();
-    let mut v = vec![0.0; n];
-    let mut sum = 0.0;
-    let mut diverged = false;
-    let mut finite = true;
-    let mut last_err = 0.0;
-    for k in 0..=steps {
-        if finite {
-            let x = kin.forward(&q, &mut kws);
-            let e = x
-                .iter()
-                .zip(traj.x(k))
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum::<f64>()
-                .sqrt();
-            if e.is_finite() {
-                last_err = e;
-                diverged |= e > cfg.divergence_threshold;
-            } else {
-                finite = false;
-                diverged = true;
-            }
+    score_path(traj, &rollout_path(policy, kin, traj, s), cfg)
+}
+
+/// Scores an executed task-space path (row-major `len × m`, NaN from where it turned
+/// non-finite, as [`rollout_path`] returns it) against the trajectory's nominal one: the
+/// Euclidean RMSE over all samples, a non-finite sample counting with the last finite
+/// error, and whether it diverged (non-finite, or an error above the threshold).
+pub fn score_path(traj: &JointTrajectory, executed: &[f64], cfg: &EvalConfig) -> RolloutScore {
+    let m = traj.m;
+    let len = traj.len();
+    let (mut sum, mut last_err, mut diverged) = (0.0, 0.0, false);
+    for k in 0..len {
+        let e = executed[k * m..(k + 1) * m]
+            .iter()
+            .zip(traj.x(k))
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt();
+        if e.is_finite() {
+            last_err = e;
+            diverged |= e > cfg.divergence_threshold;
+        } else {
+            diverged = true;
         }
         sum += last_err * last_err;
-        if k < steps && finite {
-            policy.velocity(&q, s, &mut v, &mut ws);
-            for j in 0..n {
-                q[j] += traj.dt * v[j];
-            }
-        }
     }
     RolloutScore {
-        rmse: (sum / (steps + 1) as f64).sqrt(),
+        rmse: (sum / len.max(1) as f64).sqrt(),
         diverged,
     }
 }
