@@ -137,11 +137,14 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
         curves.push(curve);
     }
     md.push_str(&format!(
-        "\nFigure `density.png`: RMSE (task units, mean over the test letters) against the test \
+        "\nFigure `density.png`: RMSE (task units, mean over the test letters; Euclidean with \
+         the arms stacked, per coordinate it is this ÷ √{}) against the test \
          rotation θ ∈ [−180°, 180°] in steps of {}°, one curve per training step Δθ (colours as \
          in the table, dark blue = densest); faint vertical lines at the evaluated θ. {} \
          iterations per policy.\n",
-        a.eval_step, tc.iterations
+        kin.task_dim(),
+        a.eval_step,
+        tc.iterations
     ));
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     std::fs::write(a.out.join("density.csv"), &csv)?;
