@@ -406,8 +406,19 @@ struct Pipeline {
     demos: crossym::data::letters::LetterDemos,
     train: crossym::data::augmentation::AugmentedSet,
     test: crossym::data::augmentation::AugmentedSet,
+    /// The training demonstrations under the test grid (Table II's no-learning reference).
+    reference: crossym::data::augmentation::AugmentedSet,
     train_secs: f64,
     test_secs: f64,
+}
+
+/// Which augmented sets [`pipeline`] builds (the others stay empty).
+#[derive(Debug, Clone, Copy)]
+struct Splits {
+    train: bool,
+    test: bool,
+    /// The training demonstrations augmented with the test grid.
+    reference: bool,
 }
 
 /// The tracked demonstrations of `[letters]` (an error naming the file when it is absent).
@@ -425,7 +436,7 @@ fn letter_demos(
 fn pipeline(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,
-    splits: (bool, bool),
+    splits: Splits,
 ) -> anyhow::Result<Pipeline> {
     use crossym::data::augmentation::{letter_augmenter, AugmentedSet};
     let aug = cfg
@@ -466,20 +477,26 @@ fn pipeline(
         bar.finish_and_clear();
         (set, t.elapsed().as_secs_f64())
     };
-    let (train, train_secs) = if splits.0 {
+    let (train, train_secs) = if splits.train {
         run("train", &aug.train, &demos.train)
     } else {
         (AugmentedSet::default(), 0.0)
     };
-    let (test, test_secs) = if splits.1 {
+    let (test, test_secs) = if splits.test {
         run("test", &aug.test, &demos.test)
     } else {
         (AugmentedSet::default(), 0.0)
+    };
+    let reference = if splits.reference {
+        run("reference", &aug.test, &demos.train).0
+    } else {
+        AugmentedSet::default()
     };
     Ok(Pipeline {
         demos,
         train,
         test,
+        reference,
         train_secs,
         test_secs,
     })
@@ -489,7 +506,15 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
     use crossym::data::augmentation::{DropReason, SubGroup};
     let cfg = Config::from_file(path)?;
     let robot = cfg.load_robot()?;
-    let p = pipeline(&cfg, &robot.kinematics, (true, true))?;
+    let p = pipeline(
+        &cfg,
+        &robot.kinematics,
+        Splits {
+            train: true,
+            test: true,
+            reference: false,
+        },
+    )?;
     println!(
         "tracked {} demonstrations of {} samples; max tracking error {:.3e} (task units)",
         p.demos.demos.len(),
@@ -577,7 +602,15 @@ fn train(
     }
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
-    let p = pipeline(&cfg, kin, (true, false))?;
+    let p = pipeline(
+        &cfg,
+        kin,
+        Splits {
+            train: true,
+            test: false,
+            reference: false,
+        },
+    )?;
     let data: Vec<_> = p
         .train
         .subset(g)
@@ -666,14 +699,16 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
         );
         loaded.push((label, policy));
     }
-    let p = pipeline(&cfg, kin, (false, true))?;
-    // The training demonstrations under the test grid: the no-learning reference.
+    let p = pipeline(
+        &cfg,
+        kin,
+        Splits {
+            train: false,
+            test: true,
+            reference: true,
+        },
+    )?;
     let aug = cfg.augmentation.as_ref().expect("checked by pipeline");
-    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
-    let reference =
-        crossym::data::augmentation::letter_augmenter(kin, &built, &cfg.composition.order)
-            .map_err(anyhow::Error::msg)?
-            .augment(&p.demos.select(&p.demos.train), &aug.test, &|| {});
     let m = kin.task_dim();
     let header = "| Policy | Original | G_R | G_RT | G_MRT |\n|---|---|---|---|---|\n";
     // Per-coordinate rows (primary) and Euclidean rows, filled side by side.
@@ -779,7 +814,8 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
     for g in SubGroup::ALL {
         let (mut sn, mut sm) = (Vec::new(), Vec::new());
         for t in p.test.subset(g) {
-            let refs: Vec<_> = reference
+            let refs: Vec<_> = p
+                .reference
                 .trajectories
                 .iter()
                 .filter(|r| r.condition == t.condition)

@@ -4,6 +4,7 @@
 
 use crossym::config::Config;
 use crossym::data::augmentation::{letter_augmenter, letter_group, GroupGrid, SubGroup};
+use crossym::data::letters::JointTrajectory;
 use crossym::symmetry::check::build;
 use crossym::symmetry::finite::SignedPermutation;
 use crossym::symmetry::lie::{AffineAction, LieGroupSpec};
@@ -13,6 +14,33 @@ use crate::common;
 
 fn letters_config() -> Config {
     common::load_config("letters.toml")
+}
+
+/// Demonstration 1 of the letter task reduced to the samples `keep(len)` picks (keeps tests
+/// fast).
+fn demo_1_at(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    keep: impl FnOnce(usize) -> Vec<usize>,
+) -> JointTrajectory {
+    let mut d = cfg
+        .letters
+        .as_ref()
+        .unwrap()
+        .build(kin, &cfg.base_dir)
+        .unwrap()
+        .demos
+        .remove(0);
+    let keep = keep(d.len());
+    let pick = |v: &[f64], w: usize| -> Vec<f64> {
+        keep.iter()
+            .flat_map(|&i| v[i * w..(i + 1) * w].to_vec())
+            .collect()
+    };
+    d.q = pick(&d.q, d.n);
+    d.qdot = pick(&d.qdot, d.n);
+    d.x = pick(&d.x, d.m);
+    d
 }
 
 #[test]
@@ -104,24 +132,8 @@ fn augmented_trajectories_draw_the_transformed_letters() {
     let cfg = letters_config();
     let robot = cfg.load_robot().unwrap();
     let kin = &robot.kinematics;
-    let mut demos = cfg
-        .letters
-        .as_ref()
-        .unwrap()
-        .build(kin, &cfg.base_dir)
-        .unwrap();
     // Keep the test fast: every 40th sample of demo 1.
-    let d = &mut demos.demos[0];
-    let keep: Vec<usize> = (0..d.len()).step_by(40).collect();
-    let pick = |v: &[f64], w: usize| {
-        keep.iter()
-            .flat_map(|&i| v[i * w..(i + 1) * w].to_vec())
-            .collect::<Vec<f64>>()
-    };
-    d.q = pick(&d.q, 8);
-    d.qdot = pick(&d.qdot, 8);
-    d.x = pick(&d.x, 4);
-    let demo = demos.demos[0].clone();
+    let demo = demo_1_at(&cfg, kin, |len| (0..len).step_by(40).collect());
     let (built, _) = build(kin, &cfg.symmetries).unwrap();
     let (rho, _, _) = letter_group(&built, &cfg.composition.order).unwrap();
     assert_eq!(rho, SignedPermutation::block_swap(&[-1.0; 4]));
@@ -228,24 +240,8 @@ fn an_orbit_that_fails_partway_keeps_what_it_reached() {
     let cfg = letters_config();
     let robot = cfg.load_robot().unwrap();
     let kin = &robot.kinematics;
-    let mut demo = cfg
-        .letters
-        .as_ref()
-        .unwrap()
-        .build(kin, &cfg.base_dir)
-        .unwrap()
-        .demos
-        .remove(0);
     // Three samples keep it fast.
-    let keep = [0, 400, 800];
-    let pick = |v: &[f64], w: usize| -> Vec<f64> {
-        keep.iter()
-            .flat_map(|&i| v[i * w..(i + 1) * w].to_vec())
-            .collect()
-    };
-    demo.q = pick(&demo.q, 8);
-    demo.qdot = pick(&demo.qdot, 8);
-    demo.x = pick(&demo.x, 4);
+    let demo = demo_1_at(&cfg, kin, |_| vec![0, 400, 800]);
     let (built, _) = build(kin, &cfg.symmetries).unwrap();
     let (rho, rot, _) = letter_group(&built, &cfg.composition.order).unwrap();
     let grid = GroupGrid {
