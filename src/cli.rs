@@ -7,9 +7,11 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use crossym::config::Config;
+use crossym::symmetry::compose::Condition;
 
 mod demo;
 mod density;
+mod rollout;
 mod ros;
 
 /// Cross-space symmetry compositions for robot policies.
@@ -46,7 +48,8 @@ enum Command {
         /// Sub-group used for augmentation: identity, R, RT or MRT.
         #[arg(long, default_value = "MRT")]
         group: String,
-        /// Output weights (`.safetensors`; a `.json` sidecar is written beside it).
+        /// Output weights (`.safetensors`; a `.json` sidecar and the loss log `.loss.csv`
+        /// are written beside it).
         #[arg(long)]
         out: PathBuf,
         /// Override `[train] iterations`.
@@ -70,6 +73,10 @@ enum Command {
     /// conditions published as a user would, a per-condition table and a PNG of the letters.
     /// Exits 1 if a check failed (limit violation, RMSE ratio, node error).
     Demo(demo::DemoArgs),
+    /// Integrate a policy open loop from a start state (a demonstration transformed by the
+    /// condition, or --q) and write the states to CSV; scored against the demonstration.
+    /// Exits 1 when the rollout turned non-finite.
+    Rollout(rollout::RolloutArgs),
     /// The augmentation-density experiment: π_R trained per rotation step Δθ, RMSE against
     /// the test rotation θ (CSV, Markdown and a PNG of the curves).
     Density(density::DensityArgs),
@@ -177,6 +184,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check { config } => check(&config),
         Command::Demo(a) => demo::demo(&a),
         Command::Density(a) => density::density(&a),
+        Command::Rollout(a) => rollout::rollout_cmd(&a),
         Command::Node {
             config,
             overrides,
@@ -412,6 +420,31 @@ struct Pipeline {
     test_secs: f64,
 }
 
+/// Parses `theta_rad:scale:reflection` into a validated condition (and echoes the text as
+/// its label).
+pub(crate) fn parse_condition(s: &str) -> anyhow::Result<(String, Condition)> {
+    let parts: Vec<&str> = s.split(':').collect();
+    anyhow::ensure!(
+        parts.len() == 3,
+        "--condition `{s}`: expected theta_rad:scale:reflection"
+    );
+    let c = Condition {
+        theta: parts[0]
+            .parse()
+            .with_context(|| format!("theta in `{s}`"))?,
+        scale: parts[1]
+            .parse()
+            .with_context(|| format!("scale in `{s}`"))?,
+        reflection: parts[2]
+            .parse()
+            .with_context(|| format!("reflection in `{s}`"))?,
+    };
+    c.validate()
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("--condition `{s}`"))?;
+    Ok((s.to_string(), c))
+}
+
 /// Which augmented sets [`pipeline`] builds (the others stay empty).
 #[derive(Debug, Clone, Copy)]
 struct Splits {
@@ -431,6 +464,26 @@ fn letter_demos(
         .as_ref()
         .with_context(|| format!("{}: no [letters] section", cfg.path.display()))?;
     Ok(letters.build(kin, &cfg.base_dir)?)
+}
+
+/// Demonstration `which` (1-based) of `demos`, by default the first of `[letters] test`.
+fn pick_demo(
+    demos: &crossym::data::letters::LetterDemos,
+    which: Option<usize>,
+) -> anyhow::Result<&crossym::data::letters::JointTrajectory> {
+    let which = which
+        .or_else(|| demos.test.first().copied())
+        .context("no demonstration given and no [letters] test demonstration")?;
+    demos
+        .demos
+        .iter()
+        .find(|d| d.demo == which)
+        .with_context(|| {
+            format!(
+                "no demonstration {which} (have {:?})",
+                demos.demos.iter().map(|d| d.demo).collect::<Vec<_>>()
+            )
+        })
 }
 
 fn pipeline(
@@ -637,22 +690,40 @@ fn train(
         .expect("static template")
         .progress_chars("=> "),
     );
+    // The loss log: every logged iteration to CSV, a tenth of the run to stdout.
+    let mut log = String::from("iteration,loss,learning_rate\n");
+    let tenth = tc.iterations.div_ceil(10).max(1);
+    let mut next_line = tenth;
     let (policy, report) = crossym::policy::train(&data, &tc, meta, |it, loss| {
+        let lr = tc.lr_schedule.at(tc.learning_rate, it - 1, tc.iterations);
+        log.push_str(&format!("{it},{loss:e},{lr:e}\n"));
         bar.set_position(it as u64);
         bar.set_message(format!("{loss:.4e}"));
+        if it >= next_line || it == tc.iterations {
+            bar.suspend(|| {
+                println!(
+                    "  iteration {it}/{}: loss {loss:.4e}, lr {lr:.2e}",
+                    tc.iterations
+                )
+            });
+            next_line = it + tenth;
+        }
     })?;
     bar.finish_and_clear();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     policy.save(out)?;
+    let log_path = out.with_extension("loss.csv");
+    std::fs::write(&log_path, &log).with_context(|| format!("writing {}", log_path.display()))?;
     println!(
-        "loss {:.4e} → {:.4e} in {} iterations, {:.1} s; saved {}",
+        "loss {:.4e} → {:.4e} in {} iterations, {:.1} s; saved {} (loss log {})",
         report.initial_loss,
         report.final_loss,
         report.iterations,
         report.seconds,
-        out.display()
+        out.display(),
+        log_path.display()
     );
     Ok(ExitCode::SUCCESS)
 }

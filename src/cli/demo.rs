@@ -83,29 +83,6 @@ fn isolate() -> anyhow::Result<Option<ExitCode>> {
     }))
 }
 
-fn parse_condition(s: &str) -> anyhow::Result<(String, Condition)> {
-    let parts: Vec<&str> = s.split(':').collect();
-    anyhow::ensure!(
-        parts.len() == 3,
-        "--condition `{s}`: expected theta_rad:scale:reflection"
-    );
-    let c = Condition {
-        theta: parts[0]
-            .parse()
-            .with_context(|| format!("theta in `{s}`"))?,
-        scale: parts[1]
-            .parse()
-            .with_context(|| format!("scale in `{s}`"))?,
-        reflection: parts[2]
-            .parse()
-            .with_context(|| format!("reflection in `{s}`"))?,
-    };
-    c.validate()
-        .map_err(anyhow::Error::msg)
-        .with_context(|| format!("--condition `{s}`"))?;
-    Ok((s.to_string(), c))
-}
-
 fn default_conditions() -> Vec<(String, Condition)> {
     let r = std::f64::consts::FRAC_PI_6;
     let c = |theta, scale, reflection| Condition {
@@ -186,21 +163,14 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
     let demos = super::letter_demos(&cfg, kin)?;
-    let which = a
-        .demo
-        .or_else(|| demos.test.first().copied())
-        .context("no test demonstration")?;
-    let demo = demos
-        .demos
-        .iter()
-        .find(|d| d.demo == which)
-        .with_context(|| format!("no demonstration {which}"))?;
+    let demo = super::pick_demo(&demos, a.demo)?;
+    let which = demo.demo;
     let conditions = if a.conditions.is_empty() {
         default_conditions()
     } else {
         a.conditions
             .iter()
-            .map(|s| parse_condition(s))
+            .map(|s| super::parse_condition(s))
             .collect::<anyhow::Result<_>>()?
     };
     let policy_path = node_cfg

@@ -181,7 +181,7 @@ pub struct LetterTaskConfig {
 /// A joint-space demonstration with its nominal task-space path.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointTrajectory {
-    /// 1-based demonstration number it came from.
+    /// 1-based demonstration number it came from (0: none, e.g. a policy rollout).
     pub demo: usize,
     /// Joint-space dimension `n`.
     pub n: usize,

@@ -115,36 +115,91 @@ pub fn score_path(traj: &JointTrajectory, executed: &[f64], cfg: &EvalConfig) ->
     }
 }
 
+/// A policy rolled out open loop from a start configuration ([`rollout`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rollout {
+    /// The executed states `q̂_k` at times `k Δt`, the policy's velocities `π(q̂_k, s)`
+    /// (zero at the last sample) and the task path `f(q̂_k)`; `demo` is 0.
+    pub traj: JointTrajectory,
+    /// Whether the rollout stayed finite over all requested samples.
+    pub status: RolloutStatus,
+}
+
+/// How a [`rollout`] ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum RolloutStatus {
+    /// Every sample is finite.
+    Finite,
+    /// The state turned non-finite at this sample; it and the samples after it are NaN.
+    NonFinite {
+        /// First non-finite sample.
+        sample: usize,
+    },
+}
+
+/// Integrates `q̂_{k+1} = q̂_k + Δt π(q̂_k, s)` (explicit Euler, as the node's velocity
+/// commands are held for a period) from `q0` for `len` samples, recording `q̂`, `π` and
+/// `f(q̂)`. Stops at the first non-finite state, filling the rest with NaN.
+pub fn rollout(
+    policy: &Policy,
+    kin: &Kinematics,
+    q0: &[f64],
+    s: &Condition,
+    dt: f64,
+    len: usize,
+) -> Rollout {
+    let (n, m) = (q0.len(), kin.task_dim());
+    let mut ws = policy.workspace();
+    let mut kws = kin.workspace();
+    let mut q = q0.to_vec();
+    let mut v = vec![0.0; n];
+    let mut t = JointTrajectory {
+        demo: 0,
+        n,
+        m,
+        dt,
+        q: Vec::with_capacity(len * n),
+        qdot: Vec::with_capacity(len * n),
+        x: Vec::with_capacity(len * m),
+    };
+    let mut status = RolloutStatus::Finite;
+    for k in 0..len {
+        let x = kin.forward(&q, &mut kws);
+        if q.iter().chain(x.iter()).any(|c| !c.is_finite()) {
+            status = RolloutStatus::NonFinite { sample: k };
+            t.q.resize(len * n, f64::NAN);
+            t.qdot.resize(len * n, f64::NAN);
+            t.x.resize(len * m, f64::NAN);
+            break;
+        }
+        t.x.extend(x.iter());
+        t.q.extend_from_slice(&q);
+        if k + 1 < len {
+            policy.velocity(&q, s, &mut v, &mut ws);
+            for j in 0..n {
+                q[j] += dt * v[j];
+            }
+        } else {
+            v.fill(0.0);
+        }
+        t.qdot.extend_from_slice(&v);
+    }
+    Rollout { traj: t, status }
+}
+
 /// The task-space path `f(q̂_k)` of the policy rolled out from the trajectory's first
-/// configuration for as many steps as the trajectory has (row-major `len × m`); a rollout
-/// that becomes non-finite stops there (the rest is NaN).
+/// configuration for as many steps as the trajectory has (row-major `len × m`, see
+/// [`rollout`]); a rollout that becomes non-finite stops there (the rest is NaN).
 pub fn rollout_path(
     policy: &Policy,
     kin: &Kinematics,
     traj: &JointTrajectory,
     s: &Condition,
 ) -> Vec<f64> {
-    let n = traj.n;
-    let mut ws = policy.workspace();
-    let mut kws = kin.workspace();
-    let mut q = traj.q(0).to_vec();
-    let mut v = vec![0.0; n];
-    let mut out = Vec::with_capacity(traj.x.len());
-    for k in 0..traj.len() {
-        let x = kin.forward(&q, &mut kws);
-        if x.iter().any(|c| !c.is_finite()) {
-            out.resize(traj.x.len(), f64::NAN);
-            break;
-        }
-        out.extend(x.iter());
-        if k + 1 < traj.len() {
-            policy.velocity(&q, s, &mut v, &mut ws);
-            for j in 0..n {
-                q[j] += traj.dt * v[j];
-            }
-        }
-    }
-    out
+    rollout(policy, kin, traj.q(0), s, traj.dt, traj.len())
+        .traj
+        .x
 }
 
 /// Per-chain task-space RMSE of an executed path against the trajectory's nominal one

@@ -206,20 +206,15 @@ fn crossym_reads_and_replays_rosbags_bags() {
     python_tools();
     for version in ["9", "8"] {
         let dir = tmp(&format!("rosbags-v{version}"));
-        let out = Command::new("python3")
-            .arg(common::root().join("tests/bags/write_bag.py"))
-            .arg(&dir)
-            .arg("--msgs")
-            .arg(common::root().join("msgs/msg"))
-            .args(["--seconds", "2", "--all-topics", "--version", version])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let stdout = common::run_ok(
+            Command::new("python3")
+                .arg(common::root().join("tests/bags/write_bag.py"))
+                .arg(&dir)
+                .arg("--msgs")
+                .arg(common::root().join("msgs/msg"))
+                .args(["--seconds", "2", "--all-topics", "--version", version]),
         );
-        let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let summary: serde_json::Value = serde_json::from_str(&stdout).unwrap();
         let bag = Bag::open(&dir).unwrap();
         let (_, mut core) = letters();
         let j = bag.topic("/joint_states").unwrap();

@@ -121,17 +121,9 @@ const REST: &str = "[check]\nreference_q = [0.785, -0.524, -0.393, -0.314, -0.78
 fn cli_exit_codes() {
     let exe = env!("CARGO_BIN_EXE_crossym");
     // 0: the shipped letter task.
-    let out = Command::new(exe)
-        .args(["check", "--config"])
-        .arg(common::path("config/letters.toml"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let text = common::run_ok(
+        common::crossym(["check", "--config"]).arg(common::path("config/letters.toml")),
     );
-    let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("composed group: (R × S) ⋊ M") && text.contains("verdict: ok"),
         "{text}"

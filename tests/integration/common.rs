@@ -80,6 +80,44 @@ pub fn path(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
 
+/// A fresh, unique temporary directory for one test (`crossym-<tag>-<pid>-<n>`).
+pub fn temp_dir(tag: &str) -> PathBuf {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let d = std::env::temp_dir().join(format!(
+        "crossym-{tag}-{}-{}",
+        std::process::id(),
+        N.fetch_add(1, Ordering::Relaxed)
+    ));
+    std::fs::create_dir_all(&d).expect("create temp dir");
+    d
+}
+
+/// `crossym ARGS…` (the binary under test), ready to run.
+pub fn crossym<I, S>(args: I) -> std::process::Command
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<std::ffi::OsStr>,
+{
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_crossym"));
+    c.args(args);
+    c
+}
+
+/// Runs `cmd` to completion and returns its stdout; panics with its exit status, stdout and
+/// stderr when it fails.
+pub fn run_ok(cmd: &mut std::process::Command) -> String {
+    let out = cmd.output().expect("command starts");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{cmd:?} exited with {:?}\n{stdout}\n{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
 /// Euclidean distance of two points.
 pub fn dist(a: &[f64], b: &[f64]) -> f64 {
     a.iter()

@@ -2,29 +2,16 @@
 //! malformed input (truncated or corrupt MAT, bad CSV) is a clear error, never a panic.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crossym::data::mat5::MatFile;
 use crossym::data::{DataError, LetterSet, MatValue};
 
-use crate::common::{path, shared};
+use crate::common::{path, shared, temp_dir};
 
 const LETTERS: [&str; 2] = ["CShape", "NShape"];
 
 /// The CSV files hold the MAT values rounded to 9 significant digits: relative error ≤ 5·10⁻⁹.
 const CSV_REL_TOL: f64 = 5.000_001e-9;
-
-/// A fresh, unique temporary directory for one test.
-fn temp_dir(tag: &str) -> PathBuf {
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let d = std::env::temp_dir().join(format!(
-        "crossym-data-{}-{tag}-{}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::Relaxed)
-    ));
-    std::fs::create_dir_all(&d).expect("create temp dir");
-    d
-}
 
 fn shipped(letter: &str, ext: &str) -> PathBuf {
     path(&format!("data/lasa/{letter}.{ext}"))

@@ -1,8 +1,10 @@
 //! Evaluation (Table II machinery): a policy scored on its own rollout has zero RMSE, a
-//! wrong condition does not, and a runaway policy is counted as diverged.
+//! wrong condition does not, and a runaway policy is counted as diverged; `crossym
+//! rollout` writes what the library's rollout computes and scores it as eval does.
 
+use crossym::data::augmentation::nominal_trajectories;
 use crossym::data::letters::JointTrajectory;
-use crossym::eval::{evaluate, score, EvalConfig};
+use crossym::eval::{evaluate, rollout, score, EvalConfig, RolloutStatus};
 use crossym::policy::{Activation, MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
 use crossym::symmetry::compose::Condition;
 use rand::Rng;
@@ -180,4 +182,140 @@ fn demo_reference_finds_the_nearest_demo_and_scores_against_the_mean() {
         .sum::<f64>()
         / test.x.len() as f64;
     assert!((flat.sqrt() - nearest / 2.0).abs() < 1e-12);
+}
+
+#[test]
+fn rollout_records_states_velocities_and_task_path() {
+    let robot = common::planar();
+    let kin = &robot.kinematics;
+    let policy = small_policy(8, 1.0, 4);
+    let s = Condition {
+        theta: -0.4,
+        scale: 0.6,
+        reflection: 1,
+    };
+    let q0 = [0.78, -0.52, -0.39, -0.31, -0.78, 0.52, 0.39, 0.31];
+    let r = rollout(&policy, kin, &q0, &s, 0.01, 50);
+    let t = &r.traj;
+    assert_eq!((t.len(), t.n, t.m, t.dt, t.demo), (50, 8, 4, 0.01, 0));
+    assert_eq!(r.status, RolloutStatus::Finite);
+    // The same Euler positions as the policy's own joint-space rollout.
+    assert_eq!(t.q, policy.rollout(&q0, &s, 0.01, 49));
+    let (mut ws, mut kws) = (policy.workspace(), kin.workspace());
+    let mut v = [0.0; 8];
+    for k in 0..50 {
+        assert_eq!(t.x(k), kin.forward(t.q(k), &mut kws).as_slice());
+        policy.velocity(t.q(k), &s, &mut v, &mut ws);
+        let expect = if k + 1 < 50 { v } else { [0.0; 8] };
+        assert_eq!(t.qdot(k), &expect);
+    }
+    // An overflowing policy: the state turns infinite within a few steps; the samples
+    // before are finite, from there on everything is NaN.
+    let wild = small_policy(8, 1e308, 5);
+    let r = rollout(&wild, kin, &q0, &s, 0.01, 20);
+    let RolloutStatus::NonFinite { sample } = r.status else {
+        panic!("{:?}", r.status)
+    };
+    assert!((1..20).contains(&sample), "{sample}");
+    let t = &r.traj;
+    assert_eq!((t.q.len(), t.qdot.len(), t.x.len()), (160, 160, 80));
+    assert_eq!(t.q(0), &q0);
+    assert!(t.x[..sample * 4].iter().all(|v| v.is_finite()));
+    assert!(t.x[sample * 4..].iter().all(|v| v.is_nan()));
+    assert!(t.q[sample * 8..].iter().all(|v| v.is_nan()));
+}
+
+#[test]
+fn rollout_cli_writes_the_library_rollout_and_scores_it_as_eval() {
+    let dir = common::temp_dir("rollout");
+    let csv = dir.join("r.csv");
+    let png = dir.join("r.png");
+    let config = common::path("config/letters.toml");
+    let text = common::run_ok(
+        common::crossym([
+            "rollout",
+            "--demo",
+            "6",
+            "--condition",
+            "0.5235987755982988:0.8:-1",
+        ])
+        .arg("--config")
+        .arg(&config)
+        .arg("--out")
+        .arg(&csv)
+        .arg("--plot")
+        .arg(&png),
+    );
+    assert!(png.metadata().unwrap().len() > 1000);
+    // What eval computes for the same nominal trajectory and the shipped policy.
+    let (cfg, robot, demos) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let s = Condition {
+        theta: 0.5235987755982988,
+        scale: 0.8,
+        reflection: -1,
+    };
+    let demo = demos.demos.iter().find(|d| d.demo == 6).unwrap();
+    let nominal = nominal_trajectories(&cfg, kin, demo, &[s])
+        .unwrap()
+        .remove(0)
+        .traj;
+    let policy = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let expect = score(&policy, kin, &nominal, &s, &cfg.eval);
+    let reported: f64 = text
+        .split("RMSE against the nominal over ")
+        .nth(1)
+        .and_then(|t| t.split(": ").nth(1))
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no RMSE in {text}"));
+    assert!(
+        (reported - expect.rmse).abs() < 1e-4,
+        "{reported} vs {expect:?}"
+    );
+    let r = rollout(&policy, kin, nominal.q(0), &s, nominal.dt, nominal.len()).traj;
+    let body = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = body.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.len(), 1 + 8 + 8 + 4 + 4);
+    assert_eq!((header[1], header[24]), ("q_left_joint1", "x3_nominal"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), nominal.len());
+    for (k, row) in rows.iter().enumerate() {
+        assert!((row[0] - k as f64 * nominal.dt).abs() < 1e-9);
+        assert_eq!(&row[1..9], r.q(k));
+        assert_eq!(&row[9..17], r.qdot(k));
+        assert_eq!(&row[17..21], r.x(k));
+        assert_eq!(&row[21..25], nominal.x(k));
+    }
+    // Bad input: a clear message and exit code 2, nothing written.
+    for (args, message) in [
+        (
+            vec!["--q", "0.1,0.2"],
+            "--q has 2 values, the robot has 8 joints",
+        ),
+        (vec!["--demo", "99"], "no demonstration 99"),
+        (vec!["--condition", "0:nan:1"], "scale"),
+        (
+            vec!["--condition", "0:1"],
+            "expected theta_rad:scale:reflection",
+        ),
+        (vec!["--dt", "-1"], "--dt -1 must be positive"),
+    ] {
+        let bad = dir.join("bad.csv");
+        let out = common::crossym(["rollout"])
+            .args(&args)
+            .arg("--config")
+            .arg(&config)
+            .arg("--out")
+            .arg(&bad)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(message), "{args:?}: {err}");
+        assert!(!bad.exists(), "{args:?}");
+    }
 }

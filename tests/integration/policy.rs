@@ -619,3 +619,62 @@ fn shipped_policy_loads_for_the_planar_robot() {
         );
     }
 }
+
+#[test]
+fn train_cli_writes_weights_sidecar_and_loss_log() {
+    // `crossym train` end to end on a tiny letter recipe: one demonstration, a coarse grid.
+    let dir = crate::common::temp_dir("train-cli");
+    let root = crate::common::path("");
+    let text = std::fs::read_to_string(crate::common::path("config/letters.toml"))
+        .unwrap()
+        .replace("\"../", &format!("\"{}/", root.display()))
+        .replace("train = [1, 2, 3, 4, 5]", "train = [1]")
+        .replace(
+            "train = { rotation_step_deg = 30.0,",
+            "train = { rotation_step_deg = 180.0,",
+        )
+        .replace("hidden = [128, 128, 128]", "hidden = [16]")
+        .replace("iterations = 12000", "iterations = 30")
+        .replace("batch_size = 256", "batch_size = 8");
+    let config = dir.join("tiny.toml");
+    std::fs::write(&config, text).unwrap();
+    let out_path = dir.join("p.safetensors");
+    let stdout = crate::common::run_ok(
+        crate::common::crossym(["train", "--group", "RT", "--config"])
+            .arg(&config)
+            .arg("--out")
+            .arg(&out_path),
+    );
+    assert!(stdout.contains("iteration 30/30: loss"), "{stdout}");
+    let policy = Policy::load(&out_path).unwrap();
+    assert!(sidecar_path(&out_path).exists());
+    let tc = policy.meta.train_config.clone().unwrap();
+    assert_eq!((tc.iterations, tc.hidden.clone()), (30, vec![16]));
+    // The loss log: every `log_every` iterations, with the schedule's learning rate.
+    let log = std::fs::read_to_string(dir.join("p.loss.csv")).unwrap();
+    let mut lines = log.lines();
+    assert_eq!(lines.next(), Some("iteration,loss,learning_rate"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(
+        rows.iter().map(|r| r[0] as usize).collect::<Vec<_>>(),
+        vec![10, 20, 30]
+    );
+    for r in &rows {
+        assert!(r[1].is_finite() && r[1] > 0.0, "{r:?}");
+        let lr = tc.lr_schedule.at(tc.learning_rate, r[0] as usize - 1, 30);
+        assert!((r[2] - lr).abs() <= 1e-12 * lr, "{r:?} vs {lr}");
+    }
+    // The trained policy rolls out through the CLI.
+    crate::common::run_ok(
+        crate::common::crossym(["rollout", "--demo", "1", "--duration-s", "1", "--config"])
+            .arg(&config)
+            .arg("--policy")
+            .arg(&out_path)
+            .arg("--out")
+            .arg(dir.join("r.csv")),
+    );
+    let csv = std::fs::read_to_string(dir.join("r.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 101);
+}

@@ -1,0 +1,247 @@
+//! `crossym rollout`: integrate a policy open loop from a start state, under one symmetry
+//! condition, and write the states to CSV (and the task-space path to PNG). Started from a
+//! demonstration, the rollout is also scored against that demonstration transformed by the
+//! condition (the nominal trajectory of Table II).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use crossym::config::Config;
+use crossym::data::augmentation::nominal_trajectories;
+use crossym::eval::plot::{write_paths_png, PathPanel, XY_VIEW};
+use crossym::eval::{rollout, score_path, RolloutStatus};
+use crossym::policy::Policy;
+
+/// Options of `crossym rollout`.
+#[derive(Debug, clap::Args)]
+pub struct RolloutArgs {
+    /// Config file (TOML) with [robot]; [letters], [[symmetries]] and [composition] for
+    /// `--demo`; [node] policy when no `--policy` is given.
+    #[arg(long, short, default_value = "config/letters.toml")]
+    pub config: PathBuf,
+    /// Policy weights (`.safetensors`); default: `[node] policy` of the config.
+    #[arg(long)]
+    pub policy: Option<PathBuf>,
+    /// Symmetry condition `theta_rad:scale:reflection`.
+    #[arg(long, default_value = "0:1:1", allow_hyphen_values = true)]
+    pub condition: String,
+    /// Start from this demonstration (1-based) transformed by the condition, and score the
+    /// rollout against it; default (without `--q`): the first of `[letters] test`.
+    #[arg(long, conflicts_with = "q")]
+    pub demo: Option<usize>,
+    /// Start configuration (rad or m), comma-separated, in the robot's joint order.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub q: Option<Vec<f64>>,
+    /// Integration step Δt (s); default: the demonstration's, else `[node] period_s`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub dt: Option<f64>,
+    /// Duration (s); default: the demonstration's length, else 10 s.
+    #[arg(long, allow_hyphen_values = true)]
+    pub duration_s: Option<f64>,
+    /// Output CSV: `t`, then `q_<joint>`, `qdot_<joint>`, `x<i>` (and `x<i>_nominal` with a
+    /// demonstration) per sample.
+    #[arg(long, default_value = "results/rollout.csv")]
+    pub out: PathBuf,
+    /// Also draw the task-space path (grey nominal, colour rollout) into this PNG.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// `crossym rollout`. Exits 1 when the rollout turned non-finite.
+pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
+    let cfg = Config::from_file(&a.config)?;
+    let robot = cfg.load_robot()?;
+    let kin = &robot.kinematics;
+    let (_, condition) = super::parse_condition(&a.condition)?;
+    let policy_path = match &a.policy {
+        Some(p) => p.clone(),
+        None => super::ros::node_config(&cfg, &super::ros::NodeOverrides::default())?
+            .policy
+            .with_context(|| {
+                format!(
+                    "{}: no --policy given and [node] policy is not set",
+                    a.config.display()
+                )
+            })?,
+    };
+    let policy = Policy::load(&policy_path)?;
+    anyhow::ensure!(
+        policy.meta.joint_names == kin.joint_names(),
+        "{}: policy joints {:?} differ from the robot's {:?}",
+        policy_path.display(),
+        policy.meta.joint_names,
+        kin.joint_names()
+    );
+    // The start state and, from a demonstration, the nominal trajectory.
+    let (q0, nominal, label) = match &a.q {
+        Some(q) => {
+            anyhow::ensure!(
+                q.len() == kin.dof(),
+                "--q has {} values, the robot has {} joints {:?}",
+                q.len(),
+                kin.dof(),
+                kin.joint_names()
+            );
+            anyhow::ensure!(
+                q.iter().all(|v| v.is_finite()),
+                "--q has a non-finite value"
+            );
+            if !kin.within_limits(q) {
+                eprintln!("warning: --q is outside the joint limits");
+            }
+            (q.clone(), None, "--q".to_string())
+        }
+        None => {
+            let demos = super::letter_demos(&cfg, kin)?;
+            let demo = super::pick_demo(&demos, a.demo)?;
+            let which = demo.demo;
+            let aug = nominal_trajectories(&cfg, kin, demo, &[condition])
+                .map_err(anyhow::Error::msg)
+                .with_context(|| format!("demonstration {which} under {}", a.condition))?
+                .pop()
+                .context("no nominal trajectory")?;
+            (
+                aug.traj.q(0).to_vec(),
+                Some(aug.traj),
+                format!("demo {which}"),
+            )
+        }
+    };
+    let dt = match (a.dt, &nominal) {
+        (Some(dt), _) => dt,
+        (None, Some(t)) => t.dt,
+        (None, None) => cfg.node_config().period_s,
+    };
+    anyhow::ensure!(dt.is_finite() && dt > 0.0, "--dt {dt} must be positive");
+    let len = match (a.duration_s, &nominal) {
+        (Some(d), _) => {
+            anyhow::ensure!(
+                d.is_finite() && d > 0.0,
+                "--duration-s {d} must be positive"
+            );
+            (d / dt).round() as usize + 1
+        }
+        (None, Some(t)) => t.len(),
+        (None, None) => (10.0 / dt).round() as usize + 1,
+    };
+    let r = rollout(&policy, kin, &q0, &condition, dt, len);
+    let (t, (n, m)) = (&r.traj, (r.traj.n, r.traj.m));
+
+    // CSV: one row per sample.
+    let names = kin.joint_names();
+    let mut csv = String::from("t");
+    for j in names {
+        write!(csv, ",q_{j}")?;
+    }
+    for j in names {
+        write!(csv, ",qdot_{j}")?;
+    }
+    for i in 0..m {
+        write!(csv, ",x{i}")?;
+    }
+    if nominal.is_some() {
+        for i in 0..m {
+            write!(csv, ",x{i}_nominal")?;
+        }
+    }
+    csv.push('\n');
+    for k in 0..t.len() {
+        write!(csv, "{}", k as f64 * dt)?;
+        for v in t.q(k).iter().chain(t.qdot(k)).chain(t.x(k)) {
+            write!(csv, ",{v}")?;
+        }
+        if let Some(nom) = &nominal {
+            // Past the nominal's end its goal stands for the remaining samples.
+            for v in nom.x(k.min(nom.len() - 1)) {
+                write!(csv, ",{v}")?;
+            }
+        }
+        csv.push('\n');
+    }
+    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(&a.out, &csv).with_context(|| format!("writing {}", a.out.display()))?;
+
+    println!(
+        "rollout of {} on {} from {label} under θ = {} rad, λ = {}, σ = {}: {} samples, Δt = {dt} s",
+        policy_path.display(),
+        kin.robot,
+        condition.theta,
+        condition.scale,
+        condition.reflection,
+        t.len()
+    );
+    let outside = (0..t.len())
+        .filter(|&k| t.q(k).iter().all(|v| v.is_finite()) && !kin.within_limits(t.q(k)))
+        .count();
+    let finite = match r.status {
+        RolloutStatus::Finite => true,
+        RolloutStatus::NonFinite { sample } => {
+            println!(
+                "  NON-FINITE from sample {sample} (t = {} s)",
+                sample as f64 * dt
+            );
+            false
+        }
+        _ => false,
+    };
+    if finite {
+        let last = t.len() - 1;
+        let speed = t
+            .qdot(last.saturating_sub(1))
+            .iter()
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt();
+        println!(
+            "  final x = {:?} (task units); last |q̇| = {speed:.3e} rad/s",
+            t.x(last)
+        );
+    }
+    println!("  samples outside the joint limits: {outside}");
+    if let Some(nom) = &nominal {
+        // Score over the samples both have (the rollout may be shorter or longer).
+        let k = t.len().min(nom.len());
+        let mut cut = nom.clone();
+        cut.q.truncate(k * n);
+        cut.qdot.truncate(k * n);
+        cut.x.truncate(k * m);
+        let s = score_path(&cut, &t.x[..k * m], &cfg.eval);
+        println!(
+            "  RMSE against the nominal over {k} samples: {:.4} Euclidean, {:.4} per coordinate (task units){}",
+            s.rmse,
+            s.rmse / (m as f64).sqrt(),
+            if s.diverged { "; DIVERGED" } else { "" }
+        );
+        if finite {
+            let d = distance(t.x(t.len() - 1), nom.x(nom.len() - 1));
+            println!("  final distance to the nominal's goal: {d:.4} (task units)");
+        }
+    }
+    println!("  wrote {}", a.out.display());
+    if let Some(png) = &a.plot {
+        let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
+        let view = cfg.eval.view.unwrap_or(XY_VIEW);
+        let nominal_x = nominal.as_ref().map_or_else(Vec::new, |t| t.x.clone());
+        let panel = PathPanel::single(m, arm_dim, view, nominal_x, t.x.clone());
+        write_paths_png(png, &[panel], 480).map_err(anyhow::Error::msg)?;
+        println!("  wrote {}", png.display());
+    }
+    Ok(if finite {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Euclidean distance of two points (task units).
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
