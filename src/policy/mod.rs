@@ -25,6 +25,7 @@ pub use error::PolicyError;
 pub use features::{encode_condition, Normalizer, CONDITION_FEATURES, STD_FLOOR};
 pub use io::{sidecar_path, FORMAT, FORMAT_VERSION};
 pub use mlp::{
-    Activation, MlpInference, MlpSpec, MlpWorkspace, Policy, PolicyMeta, PolicyWorkspace,
+    dot_kernel, tanh, Activation, MlpInference, MlpSpec, MlpWorkspace, Policy, PolicyMeta,
+    PolicyWorkspace,
 };
 pub use train::{train, CandleMlp, LrSchedule, TrainConfig, TrainReport};

@@ -256,16 +256,20 @@ fn replay_topics(core: &NodeCore) -> ReplayTopics {
 }
 
 /// The golden bag (a closed-loop run of the shipped policy with a condition switch,
-/// recorded by `crossym demo`) replays bit for bit.
+/// recorded by the release `crossym demo`) replays to rounding in this (test) build. Bit for
+/// bit holds within one build (`live_replay_feeds_a_node`, `crossym demo`); across builds
+/// the command differs by ~3e-12 rad/s on some ticks after the safety stage (the policy
+/// and the Jacobian are bit-identical in debug and release), and across CPUs the MLP's dot-product
+/// kernel rounds differently.
 #[test]
-fn golden_bag_replays_exactly() {
+fn golden_bag_replays_to_rounding() {
     let bag = Bag::open(&common::root().join("tests/data/golden_letters")).unwrap();
     let (_, mut core) = letters();
     let topics = replay_topics(&core);
     let r = replay(&bag, &mut core, &topics).unwrap();
     assert!(r.commands > 200, "{r:?}");
     assert_eq!(r.unmatched, 0);
-    assert_eq!(r.max(), 0.0, "{r:?}");
+    assert!(r.max() <= 1e-10, "{r:?}");
     // The CLI says the same and exits 0.
     let out = Command::new(env!("CARGO_BIN_EXE_crossym"))
         .arg("replay")
