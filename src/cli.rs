@@ -466,6 +466,22 @@ fn letter_demos(
     Ok(letters.build(kin, &cfg.base_dir)?)
 }
 
+/// Loads a policy and checks that it drives `kin`'s joints, in the same order.
+fn load_policy_for(
+    kin: &crossym::kinematics::Kinematics,
+    file: &std::path::Path,
+) -> anyhow::Result<crossym::policy::Policy> {
+    let policy = crossym::policy::Policy::load(file)?;
+    anyhow::ensure!(
+        policy.meta.joint_names == kin.joint_names(),
+        "{}: policy joints {:?} differ from the robot's {:?}",
+        file.display(),
+        policy.meta.joint_names,
+        kin.joint_names()
+    );
+    Ok(policy)
+}
+
 /// Demonstration `which` (1-based) of `demos`, by default the first of `[letters] test`.
 fn pick_demo(
     demos: &crossym::data::letters::LetterDemos,
@@ -760,15 +776,7 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
     };
     let mut loaded = Vec::new();
     for (label, file) in specs {
-        let policy = crossym::policy::Policy::load(&file)?;
-        anyhow::ensure!(
-            policy.meta.joint_names == kin.joint_names(),
-            "{}: policy joints {:?} differ from the robot's {:?}",
-            file.display(),
-            policy.meta.joint_names,
-            kin.joint_names()
-        );
-        loaded.push((label, policy));
+        loaded.push((label, load_policy_for(kin, &file)?));
     }
     let p = pipeline(
         &cfg,

@@ -12,7 +12,6 @@ use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::plot::{write_paths_png, PathPanel, XY_VIEW};
 use crossym::eval::{rollout, score_path, RolloutStatus};
-use crossym::policy::Policy;
 
 /// Options of `crossym rollout`.
 #[derive(Debug, clap::Args)]
@@ -66,14 +65,7 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
                 )
             })?,
     };
-    let policy = Policy::load(&policy_path)?;
-    anyhow::ensure!(
-        policy.meta.joint_names == kin.joint_names(),
-        "{}: policy joints {:?} differ from the robot's {:?}",
-        policy_path.display(),
-        policy.meta.joint_names,
-        kin.joint_names()
-    );
+    let policy = super::load_policy_for(kin, &policy_path)?;
     // The start state and, from a demonstration, the nominal trajectory.
     let (q0, nominal, label) = match &a.q {
         Some(q) => {

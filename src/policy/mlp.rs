@@ -291,28 +291,36 @@ impl MlpInference {
 /// `"portable"`. They round differently, so bit-exact replays hold between machines of the
 /// same kind.
 pub fn dot_kernel() -> &'static str {
+    if has_avx2_fma() {
+        "avx2+fma"
+    } else {
+        "portable"
+    }
+}
+
+/// True when this CPU has AVX2 and FMA (std caches the detection: one atomic load, no lock,
+/// no allocation).
+#[inline]
+fn has_avx2_fma() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            return "avx2+fma";
-        }
+        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
     }
-    "portable"
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 /// Dot product `Σ aᵢ bᵢ`: fused multiply-adds over 256-bit vectors where the CPU has AVX2
-/// and FMA (std caches the detection: one atomic load, no lock, no allocation), else a
-/// portable loop with eight independent accumulators. The two differ in rounding only.
+/// and FMA ([`has_avx2_fma`]), else a portable loop with eight independent accumulators.
+/// The two differ in rounding only.
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU supports the features `dot_fma` is compiled for.
-            return unsafe { dot_fma(a, b) };
-        }
+    if has_avx2_fma() {
+        // SAFETY: the CPU supports the features `dot_fma` is compiled for.
+        return unsafe { dot_fma(a, b) };
     }
     dot_portable(a, b)
 }
