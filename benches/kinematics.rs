@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 use criterion::{BenchmarkGroup, Criterion};
 use crossym::kinematics::{
     Chain, ChainSpec, ChainWorkspace, JointLimits, Kinematics, KinematicsSettings,
-    KinematicsWorkspace, RobotModel, TaskSpace, ToolOffset,
+    KinematicsWorkspace, RobotModel, TaskSpace,
 };
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -46,16 +46,6 @@ const TOL: f64 = 1e-9;
 /// One benchmarked operation with its own state; `run` performs exactly one call.
 trait Case {
     fn run(&mut self);
-}
-
-fn spec(name: &str, base: &str, tip: &str, task: TaskSpace) -> ChainSpec {
-    ChainSpec {
-        name: name.into(),
-        base: base.into(),
-        tip: tip.into(),
-        tool: ToolOffset::default(),
-        task,
-    }
 }
 
 /// `count` random configurations inside `limits` (unbounded joints in [-π, π]).
@@ -152,8 +142,8 @@ impl Rby1 {
         let model = RobotModel::from_urdf_file(RBY1_URDF).expect("RB-Y1 URDF loads");
         let held = HashMap::new();
         let specs = [
-            spec("left", "link_torso_5", "ee_left", TaskSpace::Xyz),
-            spec("right", "link_torso_5", "ee_right", TaskSpace::Xyz),
+            ChainSpec::new("left", "link_torso_5", "ee_left", TaskSpace::Xyz),
+            ChainSpec::new("right", "link_torso_5", "ee_right", TaskSpace::Xyz),
         ];
         let left = Chain::new(&model, &specs[0], &held).expect("left chain");
         let settings = KinematicsSettings {
@@ -406,8 +396,8 @@ impl Planar {
         }
         let model = RobotModel::from_urdf_file(PLANAR_URDF).expect("planar URDF loads");
         let specs = [
-            spec("left", "base", "left_ee", TaskSpace::Xy),
-            spec("right", "base", "right_ee", TaskSpace::Xy),
+            ChainSpec::new("left", "base", "left_ee", TaskSpace::Xy),
+            ChainSpec::new("right", "base", "right_ee", TaskSpace::Xy),
         ];
         let settings = KinematicsSettings {
             damping: 0.0,

@@ -466,6 +466,21 @@ fn letter_demos(
     Ok(letters.build(kin, &cfg.base_dir)?)
 }
 
+/// The canonical task-space features `[train] task_features` asks for (`None` without).
+pub(crate) fn task_features_for(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    built: &[crossym::symmetry::check::BuiltSymmetry],
+    tc: &crossym::policy::TrainConfig,
+) -> anyhow::Result<Option<crossym::policy::TaskFeatures>> {
+    if !tc.task_features {
+        return Ok(None);
+    }
+    crossym::policy::TaskFeatures::for_robot(kin, built, &cfg.composition.order)
+        .map(Some)
+        .map_err(|e| anyhow::anyhow!("{}: [train] task_features: {e}", cfg.path.display()))
+}
+
 /// Loads a policy and checks that it drives `kin`'s joints, in the same order.
 fn load_policy_for(
     kin: &crossym::kinematics::Kinematics,
@@ -479,6 +494,10 @@ fn load_policy_for(
         policy.meta.joint_names,
         kin.joint_names()
     );
+    if let Some(t) = policy.task_features() {
+        t.check_kinematics(kin)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    }
     Ok(policy)
 }
 
@@ -698,6 +717,8 @@ fn train(
         "grid": cfg.augmentation.as_ref().map(|a| serde_json::to_value(&a.train).unwrap_or_default()),
     });
     let meta = crossym::policy::PolicyMeta::new(&kin.robot, kin.joint_names().to_vec(), symmetry);
+    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
+    let features = task_features_for(&cfg, kin, &built, &tc)?;
     let bar = indicatif::ProgressBar::new(tc.iterations as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -710,21 +731,22 @@ fn train(
     let mut log = String::from("iteration,loss,learning_rate\n");
     let tenth = tc.iterations.div_ceil(10).max(1);
     let mut next_line = tenth;
-    let (policy, report) = crossym::policy::train(&data, &tc, meta, |it, loss| {
-        let lr = tc.lr_schedule.at(tc.learning_rate, it - 1, tc.iterations);
-        log.push_str(&format!("{it},{loss:e},{lr:e}\n"));
-        bar.set_position(it as u64);
-        bar.set_message(format!("{loss:.4e}"));
-        if it >= next_line || it == tc.iterations {
-            bar.suspend(|| {
-                println!(
-                    "  iteration {it}/{}: loss {loss:.4e}, lr {lr:.2e}",
-                    tc.iterations
-                )
-            });
-            next_line = it + tenth;
-        }
-    })?;
+    let (policy, report) =
+        crossym::policy::train_with_features(&data, &tc, meta, features, |it, loss| {
+            let lr = tc.lr_schedule.at(tc.learning_rate, it - 1, tc.iterations);
+            log.push_str(&format!("{it},{loss:e},{lr:e}\n"));
+            bar.set_position(it as u64);
+            bar.set_message(format!("{loss:.4e}"));
+            if it >= next_line || it == tc.iterations {
+                bar.suspend(|| {
+                    println!(
+                        "  iteration {it}/{}: loss {loss:.4e}, lr {lr:.2e}",
+                        tc.iterations
+                    )
+                });
+                next_line = it + tenth;
+            }
+        })?;
     bar.finish_and_clear();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

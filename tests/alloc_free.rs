@@ -222,16 +222,6 @@ const RBY1_URDF: &str = concat!(
 /// Configurations per measured function.
 const N_CONFIGS: usize = 200;
 
-fn spec(name: &str, base: &str, tip: &str, task: TaskSpace) -> ChainSpec {
-    ChainSpec {
-        name: name.into(),
-        base: base.into(),
-        tip: tip.into(),
-        tool: ToolOffset::default(),
-        task,
-    }
-}
-
 fn random_q(rng: &mut StdRng, limits: &[JointLimits]) -> Vec<f64> {
     let pi = std::f64::consts::PI;
     limits
@@ -389,7 +379,7 @@ fn counting_allocator_counts() {
 #[test]
 fn three_joint_arm_is_allocation_free() {
     let model = RobotModel::from_urdf_str(ARM3_URDF, "<arm3>").expect("arm3 loads");
-    let mut s = spec("arm", "base", "tool", TaskSpace::Xyz);
+    let mut s = ChainSpec::new("arm", "base", "tool", TaskSpace::Xyz);
     s.tool = ToolOffset {
         xyz: [0.0, 0.0, 0.05],
         rpy: [0.1, 0.0, 0.0],
@@ -405,8 +395,8 @@ fn planar_dual_arm_is_allocation_free() {
     }
     let model = RobotModel::from_urdf_file(PLANAR_URDF).expect("planar loads");
     let specs = [
-        spec("left", "base", "left_ee", TaskSpace::Xy),
-        spec("right", "base", "right_ee", TaskSpace::Xy),
+        ChainSpec::new("left", "base", "left_ee", TaskSpace::Xy),
+        ChainSpec::new("right", "base", "right_ee", TaskSpace::Xy),
     ];
     audit("planar_dual_arm", &model, &specs, 2);
 }
@@ -419,15 +409,33 @@ fn rby1_is_allocation_free() {
     }
     let model = RobotModel::from_urdf_file(RBY1_URDF).expect("RB-Y1 loads");
     let specs = [
-        spec("left", "link_torso_5", "ee_left", TaskSpace::Xyz),
-        spec("right", "link_torso_5", "ee_right", TaskSpace::Xyz),
+        ChainSpec::new("left", "link_torso_5", "ee_left", TaskSpace::Xyz),
+        ChainSpec::new("right", "link_torso_5", "ee_right", TaskSpace::Xyz),
     ];
     audit("rby1", &model, &specs, 3);
 }
 
-/// A policy with deterministic pseudo-random weights (hidden [128, 128, 128], tanh).
-fn tick_policy(n: usize, names: Vec<String>) -> crossym::policy::Policy {
-    crossym::policy::Policy::synthetic(n, names, &[128, 128, 128], 11)
+/// A policy with deterministic pseudo-random weights (hidden [128, 128, 128], tanh) and,
+/// when the config composes a letter group (`[M, R, S]` or `[M, R]`), canonical task
+/// features `x̃ = g(s)⁻¹ f(q)` as the shipped letter policies have.
+fn tick_policy(
+    cfg: &crossym::config::Config,
+    kin: &crossym::kinematics::Kinematics,
+) -> crossym::policy::Policy {
+    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries).unwrap();
+    let task = crossym::policy::TaskFeatures::for_robot(kin, &built, &cfg.composition.order).ok();
+    assert!(
+        task.is_some() || cfg.composition.order.is_empty(),
+        "{}: letter group without task features",
+        cfg.path.display()
+    );
+    crossym::policy::Policy::synthetic_with(
+        kin.dof(),
+        kin.joint_names().to_vec(),
+        &[128, 128, 128],
+        11,
+        task,
+    )
 }
 
 /// Asserts that the first allocation's innermost crossym/clarabel frame is in Clarabel's
@@ -448,11 +456,14 @@ fn assert_only_clarabel_timers(what: &str, first: Option<Backtrace>) {
 
 /// The whole control tick — FK + Jacobian, MLP forward, safety QP — allocates nothing once
 /// set up, except inside Clarabel's timers on the solver path (bounded and attributed).
-fn audit_tick(robot: &str, kin: &crossym::kinematics::Kinematics, seed: u64) {
+fn audit_tick(robot: &str, cfg: &crossym::config::Config, seed: u64) {
+    let loaded = cfg.load_robot().unwrap();
+    let kin = &loaded.kinematics;
     use crossym::safety::{SafetyFilter, SafetySettings, SafetyStatus};
     use crossym::symmetry::compose::Condition;
     let n = kin.dof();
-    let policy = tick_policy(n, kin.joint_names().to_vec());
+    let policy = tick_policy(cfg, kin);
+    assert!(policy.task_features().is_some());
     let mut pws = policy.workspace();
     let mut kws = kin.workspace();
     let mut filter = SafetyFilter::new(
@@ -528,17 +539,11 @@ fn audit_tick(robot: &str, kin: &crossym::kinematics::Kinematics, seed: u64) {
 fn control_tick_is_allocation_free() {
     use crossym::config::Config;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let planar = Config::from_file(root.join("config/planar_dual_arm.toml"))
-        .unwrap()
-        .load_robot()
-        .unwrap();
-    audit_tick("planar", &planar.kinematics, 5);
+    let planar = Config::from_file(root.join("config/letters.toml")).unwrap();
+    audit_tick("planar", &planar, 5);
     if root.join("../shared/robots/rby1a/model.urdf").exists() {
-        let rby1 = Config::from_file(root.join("config/rby1.toml"))
-            .unwrap()
-            .load_robot()
-            .unwrap();
-        audit_tick("rby1", &rby1.kinematics, 6);
+        let rby1 = Config::from_file(root.join("config/rby1-letters.toml")).unwrap();
+        audit_tick("rby1", &rby1, 6);
     } else {
         eprintln!("SKIP rby1 tick: ../shared/robots/rby1a/model.urdf absent");
     }
@@ -553,14 +558,12 @@ fn node_core_tick_is_allocation_free() {
     use crossym::ros::{msg, NodeConfig, NodeCore};
     use crossym::safety::{SafetySettings, SafetyStatus};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let robot = Config::from_file(root.join("config/letters.toml"))
-        .unwrap()
-        .load_robot()
-        .unwrap();
-    let kin = robot.kinematics;
+    let cfg = Config::from_file(root.join("config/letters.toml")).unwrap();
+    let kin = cfg.load_robot().unwrap().kinematics;
     let n = kin.dof();
     let names = kin.joint_names().to_vec();
-    let policy = tick_policy(n, names.clone());
+    let policy = tick_policy(&cfg, &kin);
+    assert!(policy.task_features().is_some());
     let safety = SafetySettings {
         min_ee_distance: Some(0.5),
         ..Default::default()

@@ -89,7 +89,9 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             kin.joint_names().to_vec(),
             serde_json::json!({ "group": "G_R", "rotation_step_deg": step }),
         );
-        let (policy, report) = crossym::policy::train(&data, &tc, meta, |_, _| {})?;
+        let features = super::task_features_for(&cfg, kin, &built, &tc)?;
+        let (policy, report) =
+            crossym::policy::train_with_features(&data, &tc, meta, features, |_, _| {})?;
         let mut curve = Vec::new();
         let (mut sum, mut max, mut div) = (0.0, 0.0f64, 0);
         for &theta in &angles {

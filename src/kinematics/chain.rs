@@ -68,6 +68,19 @@ pub struct ChainSpec {
     pub task: TaskSpace,
 }
 
+impl ChainSpec {
+    /// The chain `name` from link `base` to link `tip`, task coordinates `task`, no tool offset.
+    pub fn new(name: &str, base: &str, tip: &str, task: TaskSpace) -> Self {
+        Self {
+            name: name.into(),
+            base: base.into(),
+            tip: tip.into(),
+            tool: ToolOffset::default(),
+            task,
+        }
+    }
+}
+
 /// A fixed transform from the tip link frame to the tool point.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -89,6 +102,89 @@ impl ToolOffset {
         )
     }
 }
+
+/// A rigid transform as plain numbers: row-major rotation (3×3) and translation (m).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidFactor {
+    /// Rotation matrix, row-major (`rotation[3 * row + col]`).
+    pub rotation: [f64; 9],
+    /// Translation (m).
+    pub translation: [f64; 3],
+}
+
+/// One movable joint: constant transform before it, then rotation about / translation along z.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointFactor {
+    /// Constant transform from the previous joint's moved frame to this joint's z-aligned frame.
+    pub pre: RigidFactor,
+    /// Translation along z (m) when true, rotation about z (rad) otherwise.
+    pub prismatic: bool,
+}
+
+/// The chain's FK as a product `T(q) = Π_i pre_i M_z(q_i) · tail` (joint frames z-aligned):
+/// everything FK needs, without the URDF.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChainFactors {
+    /// Chain name (e.g. `left`).
+    pub name: String,
+    /// Task-space coordinates of the tool point (in the chain base frame).
+    pub task: TaskSpace,
+    /// Movable joints, base to tip.
+    pub joints: Vec<JointFactor>,
+    /// Constant transform from the last joint's moved frame to the tool point (tool offset included).
+    pub tail: RigidFactor,
+}
+
+impl RigidFactor {
+    /// The numbers of a rigid transform (bit for bit).
+    fn from_isometry(t: &IsometryMatrix3<f64>) -> Self {
+        let m = t.rotation.matrix();
+        let mut rotation = [0.0; 9];
+        for row in 0..3 {
+            for col in 0..3 {
+                rotation[3 * row + col] = m[(row, col)];
+            }
+        }
+        Self {
+            rotation,
+            translation: t.translation.vector.into(),
+        }
+    }
+
+    /// The transform, after checking the numbers are finite and the rotation orthonormal with
+    /// determinant +1 (to 1e-9); `what` names the factor in the error.
+    fn to_isometry(self, what: &str) -> Result<IsometryMatrix3<f64>, String> {
+        if let Some(v) = self.rotation.iter().find(|v| !v.is_finite()) {
+            return Err(format!("{what}: rotation entry {v} is not finite"));
+        }
+        if let Some(v) = self.translation.iter().find(|v| !v.is_finite()) {
+            return Err(format!("{what}: translation entry {v} is not finite"));
+        }
+        let m = nalgebra::Matrix3::from_row_slice(&self.rotation);
+        let err = (m.transpose() * m - nalgebra::Matrix3::identity()).amax();
+        if err > ORTHONORMAL_TOL {
+            return Err(format!(
+                "{what}: rotation is not orthonormal (max |RᵀR − I| = {err:e} > {ORTHONORMAL_TOL:e})"
+            ));
+        }
+        let det = m.determinant();
+        if (det - 1.0).abs() > ORTHONORMAL_TOL {
+            return Err(format!(
+                "{what}: rotation has determinant {det} (must be +1, not a reflection)"
+            ));
+        }
+        Ok(IsometryMatrix3::from_parts(
+            Vector3::from(self.translation).into(),
+            Rotation3::from_matrix_unchecked(m),
+        ))
+    }
+}
+
+/// Tolerance of the orthonormality and determinant checks of [`Chain::from_factors`].
+const ORTHONORMAL_TOL: f64 = 1e-9;
 
 /// One movable joint in a frame whose z axis is the joint axis (see [`Chain::new`]).
 #[derive(Debug, Clone)]
@@ -234,6 +330,56 @@ impl Chain {
                 prev_align.inverse(),
             ) * acc
                 * spec.tool.isometry(),
+        })
+    }
+
+    /// This chain's factors (for storing FK beside a policy, or building it in another framework).
+    pub fn factors(&self) -> ChainFactors {
+        ChainFactors {
+            name: self.name.clone(),
+            task: self.task,
+            joints: self
+                .segments
+                .iter()
+                .map(|s| JointFactor {
+                    pre: RigidFactor::from_isometry(&s.pre),
+                    prismatic: s.prismatic,
+                })
+                .collect(),
+            tail: RigidFactor::from_isometry(&self.tail),
+        }
+    }
+
+    /// A chain rebuilt from factors: same FK (bit for bit) as the chain they came from;
+    /// joint names `"{name}_joint{i}"`, limits unbounded, base/tip strings `""`. Validates
+    /// that rotations are orthonormal to 1e-9 with det +1 and values finite; error says what is wrong (String).
+    pub fn from_factors(f: &ChainFactors) -> Result<Chain, String> {
+        if f.joints.is_empty() {
+            return Err(format!("chain `{}`: no joints", f.name));
+        }
+        let mut segments = Vec::with_capacity(f.joints.len());
+        for (i, j) in f.joints.iter().enumerate() {
+            let pre = j
+                .pre
+                .to_isometry(&format!("chain `{}`: joint {i} pre", f.name))?;
+            segments.push(Segment {
+                // Exactly as in `Chain::new`, so that FK takes the same path.
+                pre_translation_only: pre.rotation == Rotation3::identity(),
+                pre,
+                prismatic: j.prismatic,
+            });
+        }
+        let tail = f.tail.to_isometry(&format!("chain `{}`: tail", f.name))?;
+        let n = segments.len();
+        Ok(Self {
+            name: f.name.clone(),
+            base: String::new(),
+            tip: String::new(),
+            task: f.task,
+            joint_names: (0..n).map(|i| format!("{}_joint{i}", f.name)).collect(),
+            limits: vec![JointLimits::UNBOUNDED; n],
+            segments,
+            tail,
         })
     }
 
@@ -424,5 +570,166 @@ impl ChainWorkspace {
     /// Column `i` of `dJ_p[δ]` after [`Chain::position_jacobian_derivative`] (m/rad).
     pub fn jacobian_dot(&self, i: usize) -> Vector3<f64> {
         self.jacobian_dot[i]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::rngs::StdRng;
+    use rand::SeedableRng;
+
+    const PLANAR_URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/urdf/planar_dual_arm.urdf");
+
+    fn planar_chains() -> Vec<Chain> {
+        let model = RobotModel::from_urdf_file(PLANAR_URDF).expect("planar loads");
+        [("left", "left_ee"), ("right", "right_ee")]
+            .iter()
+            .map(|(n, t)| {
+                Chain::new(
+                    &model,
+                    &ChainSpec::new(n, "base", t, TaskSpace::Xy),
+                    &HashMap::new(),
+                )
+                .expect("chain builds")
+            })
+            .collect()
+    }
+
+    fn rby1_chains() -> Option<Vec<Chain>> {
+        let model =
+            RobotModel::from_urdf_file(super::super::test_rby1_urdf()?).expect("RB-Y1 loads");
+        let tool = ToolOffset {
+            xyz: [0.01, -0.02, 0.1],
+            rpy: [0.1, -0.2, 0.3],
+        };
+        Some(
+            [("left", "ee_left"), ("right", "ee_right")]
+                .iter()
+                .map(|(n, t)| {
+                    let mut s = ChainSpec::new(n, "link_torso_5", t, TaskSpace::Xyz);
+                    if *n == "right" {
+                        s.tool = tool; // a non-trivial tail as well
+                    }
+                    Chain::new(&model, &s, &HashMap::new()).expect("chain builds")
+                })
+                .collect(),
+        )
+    }
+
+    fn random_q(rng: &mut StdRng, c: &Chain) -> Vec<f64> {
+        crate::kinematics::test_random_q(rng, &c.limits)
+    }
+
+    /// `from_factors(factors())` has bit-identical FK, task point and Jacobian.
+    fn assert_round_trip(c: &Chain, seed: u64) {
+        let f = c.factors();
+        assert_eq!(f.joints.len(), c.dof());
+        assert_eq!(f.task, c.task);
+        let r = Chain::from_factors(&f).expect("factors of a real chain are valid");
+        assert_eq!(r.dof(), c.dof());
+        assert_eq!(r.name, c.name);
+        assert_eq!(r.joint_names[0], format!("{}_joint0", c.name));
+        assert!(r.limits.iter().all(|l| *l == JointLimits::UNBOUNDED));
+        assert_eq!(r.factors(), f, "factors are a fixed point");
+        let (mut wa, mut wb) = (c.workspace(), r.workspace());
+        let mut rng = StdRng::seed_from_u64(seed);
+        let d = c.task.dim();
+        let (mut xa, mut xb) = (vec![0.0; d], vec![0.0; d]);
+        for _ in 0..50 {
+            let q = random_q(&mut rng, c);
+            let (ta, tb) = (*c.forward(&q, &mut wa), *r.forward(&q, &mut wb));
+            assert_eq!(
+                ta.translation.vector.as_slice(),
+                tb.translation.vector.as_slice(),
+                "chain `{}` q {q:?}",
+                c.name
+            );
+            assert_eq!(
+                ta.rotation.matrix().as_slice(),
+                tb.rotation.matrix().as_slice()
+            );
+            c.task_point(&wa, &mut xa);
+            r.task_point(&wb, &mut xb);
+            assert_eq!(xa, xb);
+            assert!(xa.iter().all(|v| v.is_finite()));
+            c.jacobian(&q, &mut wa);
+            r.jacobian(&q, &mut wb);
+            assert_eq!(wa.jacobian.as_slice(), wb.jacobian.as_slice());
+        }
+    }
+
+    #[test]
+    fn from_factors_reproduces_planar_fk_bit_for_bit() {
+        for (i, c) in planar_chains().iter().enumerate() {
+            assert_round_trip(c, 7 + i as u64);
+        }
+    }
+
+    #[test]
+    fn from_factors_reproduces_rby1_fk_bit_for_bit() {
+        let Some(chains) = rby1_chains() else { return };
+        for (i, c) in chains.iter().enumerate() {
+            assert_eq!(c.dof(), 7);
+            assert_round_trip(c, 17 + i as u64);
+        }
+    }
+
+    #[test]
+    fn chain_factors_serde_round_trip() {
+        let mut chains = planar_chains();
+        chains.extend(rby1_chains().unwrap_or_default());
+        for c in &chains {
+            let f = c.factors();
+            let json = serde_json::to_string(&f).expect("serialises");
+            let back: ChainFactors = serde_json::from_str(&json).expect("deserialises");
+            assert_eq!(back, f);
+            let r = Chain::from_factors(&back).expect("valid");
+            let q = vec![0.3; c.dof()];
+            let (mut wa, mut wb) = (c.workspace(), r.workspace());
+            assert_eq!(*c.forward(&q, &mut wa), *r.forward(&q, &mut wb));
+        }
+        // Unknown fields are rejected.
+        let json = serde_json::to_string(&chains[0].factors()).unwrap();
+        let bad = json.replacen("\"name\"", "\"extra\":1,\"name\"", 1);
+        assert!(serde_json::from_str::<ChainFactors>(&bad).is_err());
+    }
+
+    #[test]
+    fn from_factors_rejects_invalid_factors() {
+        let good = planar_chains()[0].factors();
+
+        let mut f = good.clone();
+        f.joints[1].pre.rotation[0] = 1.001; // first column no longer unit
+        let e = Chain::from_factors(&f).unwrap_err();
+        assert!(
+            e.contains("joint 1 pre") && e.contains("orthonormal"),
+            "{e}"
+        );
+
+        let mut f = good.clone();
+        f.tail.rotation = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -1.0]; // a reflection
+        let e = Chain::from_factors(&f).unwrap_err();
+        assert!(e.contains("tail") && e.contains("determinant"), "{e}");
+
+        let mut f = good.clone();
+        f.joints[0].pre.translation[2] = f64::NAN;
+        let e = Chain::from_factors(&f).unwrap_err();
+        assert!(e.contains("joint 0 pre") && e.contains("not finite"), "{e}");
+
+        let mut f = good.clone();
+        f.tail.rotation[4] = f64::INFINITY;
+        let e = Chain::from_factors(&f).unwrap_err();
+        assert!(e.contains("tail") && e.contains("not finite"), "{e}");
+
+        let mut f = good.clone();
+        f.joints.clear();
+        let e = Chain::from_factors(&f).unwrap_err();
+        assert!(e.contains("no joints"), "{e}");
+
+        // A slightly perturbed but still orthonormal (to 1e-9) rotation is accepted.
+        let mut f = good;
+        f.tail.rotation[0] += 1e-12;
+        assert!(Chain::from_factors(&f).is_ok());
     }
 }

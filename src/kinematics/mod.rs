@@ -17,10 +17,40 @@ pub mod model;
 pub mod pinv;
 pub mod robot;
 
-pub use chain::{Chain, ChainSpec, ChainWorkspace, TaskSpace, ToolOffset};
+pub use chain::{
+    Chain, ChainFactors, ChainSpec, ChainWorkspace, JointFactor, RigidFactor, TaskSpace, ToolOffset,
+};
 pub use error::KinematicsError;
 pub use model::{JointKind, JointLimits, JointModel, RobotModel};
 pub use pinv::{
     condition_number, DampedPinv, JacobianBlock, Metric, PinvReport, PinvStatus, PinvWorkspace,
 };
 pub use robot::{Kinematics, KinematicsSettings, KinematicsWorkspace};
+
+/// The vendor RB-Y1 URDF beside the crate (`../shared`), or `None` with a printed reason
+/// (unit tests only; integration tests have their own fixture).
+#[cfg(test)]
+pub(crate) fn test_rby1_urdf() -> Option<std::path::PathBuf> {
+    let p =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/robots/rby1a/model.urdf");
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!("SKIP: {} absent (RB-Y1 tests need ../shared)", p.display());
+        None
+    }
+}
+
+/// Uniform joint values within `limits` (±3 where a side is unbounded); unit tests only.
+#[cfg(test)]
+pub(crate) fn test_random_q(rng: &mut rand::rngs::StdRng, limits: &[JointLimits]) -> Vec<f64> {
+    use rand::Rng;
+    limits
+        .iter()
+        .map(|l| {
+            let lo = if l.lower.is_finite() { l.lower } else { -3.0 };
+            let hi = if l.upper.is_finite() { l.upper } else { 3.0 };
+            rng.random_range(lo..=hi)
+        })
+        .collect()
+}

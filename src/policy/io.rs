@@ -7,7 +7,9 @@
 //!
 //! `policy.json` (same stem, [`sidecar_path`]) holds the format tag and version, the crate
 //! version, the normaliser, the layer sizes and activation, robot and joint names, the
-//! caller's symmetry description and the training configuration. [`Policy::load`] checks
+//! caller's symmetry description, the training configuration and, for policies with
+//! canonical task-space features, their FK chains, group map and normalisation
+//! ([`super::canonical::TaskFeatureSpec`]). [`Policy::load`] checks
 //! the format version, the normaliser, that the layer sizes agree with `n`, that every
 //! tensor exists with the right shape, and that every weight is finite, and names the
 //! file and the offending field or tensor when something is wrong.
@@ -19,6 +21,7 @@ use safetensors::tensor::TensorView;
 use safetensors::{Dtype, SafeTensors};
 use serde::{Deserialize, Serialize};
 
+use super::canonical::{TaskFeatureSpec, TaskFeatures};
 use super::error::PolicyError;
 use super::features::Normalizer;
 use super::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};
@@ -50,6 +53,9 @@ struct Sidecar {
     joint_names: Vec<String>,
     symmetry: serde_json::Value,
     train_config: Option<TrainConfig>,
+    /// Canonical task-space features (absent in policies without them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    task_features: Option<TaskFeatureSpec>,
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> PolicyError + '_ {
@@ -117,6 +123,7 @@ impl Policy {
             joint_names: self.meta.joint_names.clone(),
             symmetry: self.meta.symmetry.clone(),
             train_config: self.meta.train_config.clone(),
+            task_features: self.task_features().map(|t| t.spec().clone()),
         };
         let json = serde_json::to_string_pretty(&sidecar).map_err(|e| PolicyError::Sidecar {
             path: side.clone(),
@@ -177,14 +184,20 @@ impl Policy {
             .validate()
             .map_err(|m| invalid("normalizer", m))?;
         sc.mlp.validate().map_err(|m| invalid("mlp", m))?;
+        let task = sc
+            .task_features
+            .clone()
+            .map(TaskFeatures::new)
+            .transpose()
+            .map_err(|m| invalid("task_features", m))?;
         let n = sc.normalizer.dim();
-        if sc.mlp.input != sc.normalizer.input_dim() || sc.mlp.output != n {
+        let input = sc.normalizer.input_dim() + task.as_ref().map_or(0, TaskFeatures::dim);
+        if sc.mlp.input != input || sc.mlp.output != n {
             return Err(invalid(
                 "mlp",
                 format!(
-                    "layer sizes {:?} do not fit {n} joints (input must be {}, output {n})",
+                    "layer sizes {:?} do not fit {n} joints (input must be {input}, output {n})",
                     sc.mlp.layer_sizes(),
-                    sc.normalizer.input_dim()
                 ),
             ));
         }
@@ -244,10 +257,11 @@ impl Policy {
             train_config: sc.train_config,
             crate_version: sc.crate_version,
         };
-        let policy = Policy::new(sc.normalizer, mlp, meta).map_err(|e| match e {
-            PolicyError::Invalid { field, message, .. } => invalid(&field, message),
-            e => e,
-        })?;
+        let policy =
+            Policy::with_task_features(sc.normalizer, mlp, task, meta).map_err(|e| match e {
+                PolicyError::Invalid { field, message, .. } => invalid(&field, message),
+                e => e,
+            })?;
         Ok(policy)
     }
 }

@@ -15,8 +15,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::canonical::{TaskFeatureWorkspace, TaskFeatures};
 use super::error::PolicyError;
-use super::features::Normalizer;
+use super::features::{encode_condition, Normalizer, CONDITION_FEATURES};
 use super::train::TrainConfig;
 use crate::symmetry::compose::Condition;
 
@@ -408,20 +409,28 @@ pub struct PolicyWorkspace {
     input: Vec<f64>,
     y: Vec<f64>,
     mlp: MlpWorkspace,
+    task: Option<TaskFeatureWorkspace>,
 }
 
 impl PolicyWorkspace {
     /// Total number of `f64` held (for checking that it never grows).
     pub fn capacity(&self) -> usize {
-        self.input.capacity() + self.y.capacity() + 2 * self.mlp.capacity()
+        self.input.capacity()
+            + self.y.capacity()
+            + 2 * self.mlp.capacity()
+            + self.task.as_ref().map_or(0, TaskFeatureWorkspace::capacity)
     }
 }
 
 /// A symmetry-conditioned joint-space policy `π(q, s) → q̇` ready for the control loop.
+///
+/// Its input is `[ (q − μ) ⊘ σ_q, x̃ features (when it has [`TaskFeatures`]), cos θ, sin θ,
+/// ln λ, σ ]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Policy {
     normalizer: Normalizer,
     mlp: MlpInference,
+    task: Option<TaskFeatures>,
     /// Provenance (free to edit; checked against `n` when saving and loading).
     pub meta: PolicyMeta,
 }
@@ -434,9 +443,20 @@ impl Policy {
         mlp: MlpInference,
         meta: PolicyMeta,
     ) -> Result<Self, PolicyError> {
+        Self::with_task_features(normalizer, mlp, None, meta)
+    }
+
+    /// As [`Policy::new`], with canonical task-space features (`input = n + m + 4`).
+    pub fn with_task_features(
+        normalizer: Normalizer,
+        mlp: MlpInference,
+        task: Option<TaskFeatures>,
+        meta: PolicyMeta,
+    ) -> Result<Self, PolicyError> {
         let p = Self {
             normalizer,
             mlp,
+            task,
             meta,
         };
         p.check(std::path::Path::new("<memory>"))?;
@@ -447,9 +467,24 @@ impl Policy {
     /// 0.01) and an identity normaliser: the shape of a real one, for benchmarks and tests.
     /// Not a trained policy.
     pub fn synthetic(n: usize, joint_names: Vec<String>, hidden: &[usize], seed: u64) -> Self {
+        Self::synthetic_with(n, joint_names, hidden, seed, None)
+    }
+
+    /// [`Policy::synthetic`] with canonical task features (input `n + m + 4`): the shape of
+    /// a real one, for benchmarks and tests. Not a trained policy.
+    ///
+    /// # Panics
+    /// When `task` reads more than `n` joints.
+    pub fn synthetic_with(
+        n: usize,
+        joint_names: Vec<String>,
+        hidden: &[usize],
+        seed: u64,
+        task: Option<TaskFeatures>,
+    ) -> Self {
         use rand::{Rng, SeedableRng};
         let spec = MlpSpec {
-            input: n + 4,
+            input: n + 4 + task.as_ref().map_or(0, TaskFeatures::dim),
             hidden: hidden.to_vec(),
             output: n,
             activation: Activation::Tanh,
@@ -466,9 +501,10 @@ impl Policy {
             .collect();
         let biases = sizes[1..].iter().map(|&o| vec![0.01; o]).collect();
         let mlp = MlpInference::new(spec, weights, biases).expect("synthetic shapes are valid");
-        Policy::new(
+        Policy::with_task_features(
             Normalizer::identity(n),
             mlp,
+            task,
             PolicyMeta::new("synthetic", joint_names, serde_json::Value::Null),
         )
         .expect("synthetic policy is consistent")
@@ -486,13 +522,26 @@ impl Policy {
             .map_err(|m| invalid("normalizer", m))?;
         let n = self.normalizer.dim();
         let spec = self.mlp.spec();
-        if spec.input != self.normalizer.input_dim() {
+        if let Some(t) = &self.task {
+            if t.joints_read() > n {
+                return Err(invalid(
+                    "task_features",
+                    format!(
+                        "the chains read {} joints, the policy has {n}",
+                        t.joints_read()
+                    ),
+                ));
+            }
+        }
+        if spec.input != self.input_dim() {
             return Err(invalid(
                 "mlp.input",
                 format!(
-                    "{} but the normaliser has {n} joints (input must be n + 4 = {})",
+                    "{} but the policy has {n} joints and {} task features (input must be \
+                     n + m + 4 = {})",
                     spec.input,
-                    self.normalizer.input_dim()
+                    self.task.as_ref().map_or(0, TaskFeatures::dim),
+                    self.input_dim()
                 ),
             ));
         }
@@ -526,12 +575,23 @@ impl Policy {
         &self.mlp
     }
 
+    /// The canonical task-space features, when the policy has them.
+    pub fn task_features(&self) -> Option<&TaskFeatures> {
+        self.task.as_ref()
+    }
+
+    /// Network input width `n + m + 4` (`m = 0` without task features).
+    pub fn input_dim(&self) -> usize {
+        self.normalizer.input_dim() + self.task.as_ref().map_or(0, TaskFeatures::dim)
+    }
+
     /// A workspace sized for this policy (allocate once, before the control loop).
     pub fn workspace(&self) -> PolicyWorkspace {
         PolicyWorkspace {
-            input: vec![0.0; self.normalizer.input_dim()],
+            input: vec![0.0; self.input_dim()],
             y: vec![0.0; self.dim()],
             mlp: self.mlp.workspace(),
+            task: self.task.as_ref().map(TaskFeatures::workspace),
         }
     }
 
@@ -544,10 +604,21 @@ impl Policy {
         let n = self.dim();
         assert_eq!(q.len(), n, "policy q length");
         assert_eq!(out.len(), n, "policy output length");
-        let PolicyWorkspace { input, y, mlp } = ws;
-        let input = &mut input[..n + super::features::CONDITION_FEATURES];
+        let PolicyWorkspace {
+            input,
+            y,
+            mlp,
+            task,
+        } = ws;
+        let input = &mut input[..self.input_dim()];
         let y = &mut y[..n];
-        self.normalizer.encode(q, s, input);
+        self.normalizer.normalize_q(q, &mut input[..n]);
+        let mut c = n;
+        if let (Some(t), Some(tw)) = (&self.task, task.as_mut()) {
+            c += t.dim();
+            t.encode(q, s, &mut input[n..c], tw);
+        }
+        encode_condition(s, &mut input[c..c + CONDITION_FEATURES]);
         self.mlp.forward(input, y, mlp);
         self.normalizer.denormalize_qdot(y, out);
     }

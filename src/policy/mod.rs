@@ -7,6 +7,9 @@
 //! the demonstrated positions (plus a weighted velocity term).
 //!
 //! - [`features`]: input encoding and the [`Normalizer`].
+//! - [`canonical`]: optional canonical task-space inputs `x̃ = g(s)⁻¹ f(q)`
+//!   ([`TaskFeatures`]), with the robot's FK stored in the policy.
+//! - [`task_fk`]: batched differentiable FK in candle ([`CandleFk`]), for those features.
 //! - [`mlp`]: architecture ([`MlpSpec`]), allocation-free `f64` inference
 //!   ([`MlpInference`]) and the control-loop [`Policy`].
 //! - [`train`](mod@train): training with candle ([`train()`], [`TrainConfig`], [`TrainReport`]).
@@ -15,12 +18,15 @@
 //! Only training uses candle; [`Policy::velocity`] is plain `f64` code that allocates
 //! nothing, with a caller-owned [`PolicyWorkspace`].
 
+pub mod canonical;
 pub mod error;
 pub mod features;
 pub mod io;
 pub mod mlp;
+pub mod task_fk;
 pub mod train;
 
+pub use canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatureWorkspace, TaskFeatures};
 pub use error::PolicyError;
 pub use features::{encode_condition, Normalizer, CONDITION_FEATURES, STD_FLOOR};
 pub use io::{sidecar_path, FORMAT, FORMAT_VERSION};
@@ -28,4 +34,5 @@ pub use mlp::{
     dot_kernel, tanh, Activation, MlpInference, MlpSpec, MlpWorkspace, Policy, PolicyMeta,
     PolicyWorkspace,
 };
-pub use train::{train, CandleMlp, LrSchedule, TrainConfig, TrainReport};
+pub use task_fk::CandleFk;
+pub use train::{train, train_with_features, CandleMlp, LrSchedule, TrainConfig, TrainReport};

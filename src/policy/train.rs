@@ -38,9 +38,11 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
+use super::canonical::TaskFeatures;
 use super::error::PolicyError;
 use super::features::{encode_condition, Normalizer, CONDITION_FEATURES};
 use super::mlp::{Activation, MlpInference, MlpSpec, Policy, PolicyMeta};
+use super::task_fk::CandleFk;
 use crate::data::letters::JointTrajectory;
 use crate::symmetry::compose::Condition;
 
@@ -162,6 +164,11 @@ pub struct TrainConfig {
     /// padding): every sample starts a window and the policy learns to stop at the goal.
     #[serde(default)]
     pub pad_end: bool,
+    /// Also feed the network the canonical task-space point `x̃ = g(s)⁻¹ f(q)`
+    /// ([`super::canonical`]), differentiated through the FK in the rollout; needs
+    /// [`train_with_features`].
+    #[serde(default)]
+    pub task_features: bool,
 }
 
 fn d_one() -> usize {
@@ -187,6 +194,7 @@ impl Default for TrainConfig {
             start_noise: 0.0,
             weight_decay: 0.0,
             pad_end: false,
+            task_features: false,
         }
     }
 }
@@ -426,6 +434,18 @@ struct Prepared {
     cond: [f32; CONDITION_FEATURES],
     /// `stride · Δt g` per joint.
     step: Vec<f32>,
+    /// Normalised task features of every sample (`len × m`; empty without them).
+    feat: Vec<f32>,
+    /// The trajectory's affine feature map `x ↦ E x + e` (`m × m` then `m`).
+    canon: (Vec<f32>, Vec<f32>),
+}
+
+/// The differentiable task-feature path of the rollout: `q = μ + σ_q ⊙ z`, `x = f(q)`.
+struct FeatureGraph {
+    fk: CandleFk,
+    q_mean: Tensor,
+    q_std: Tensor,
+    m: usize,
 }
 
 /// Uniform sampler over all `(trajectory, start)` windows.
@@ -452,6 +472,8 @@ struct Windows {
     /// Samples per step.
     stride: usize,
     n: usize,
+    /// Number of task features.
+    m: usize,
     /// Std of the start-state noise (normalised units).
     noise: f32,
 }
@@ -459,6 +481,8 @@ struct Windows {
 struct Batch {
     z0: Tensor,
     cond: Tensor,
+    /// Per-window feature maps `E` (`[B, m, m]`) and `e` (`[B, m]`), with task features.
+    canon: Option<(Tensor, Tensor)>,
     step: Tensor,
     target: Tensor,
     vel_in: Tensor,
@@ -483,11 +507,14 @@ fn make_batch(
         h,
         stride,
         n,
+        m,
         noise,
     } = w;
     let c = CONDITION_FEATURES;
     let mut z0 = Vec::with_capacity(b * n);
     let mut cond = Vec::with_capacity(b * c);
+    let mut canon_e = Vec::with_capacity(b * m * m);
+    let mut canon_b = Vec::with_capacity(b * m);
     let mut step = Vec::with_capacity(b * n);
     let mut target = Vec::with_capacity(b * h * n);
     let mut vel_in = Vec::with_capacity(b * h * (n + c));
@@ -509,6 +536,8 @@ fn make_batch(
         }
         cond.extend_from_slice(&p.cond);
         step.extend_from_slice(&p.step);
+        canon_e.extend_from_slice(&p.canon.0);
+        canon_b.extend_from_slice(&p.canon.1);
         for k in 1..=h {
             let s = at(k);
             target.extend_from_slice(&p.z[s * n..(s + 1) * n]);
@@ -516,6 +545,7 @@ fn make_batch(
         for k in 0..h {
             let s = at(k);
             vel_in.extend_from_slice(&p.z[s * n..(s + 1) * n]);
+            vel_in.extend_from_slice(&p.feat[s * m..(s + 1) * m]);
             vel_in.extend_from_slice(&p.cond);
             if at(k + 1) == s {
                 // Holding at the goal: the demonstrated motion is zero.
@@ -529,19 +559,51 @@ fn make_batch(
     Ok(Batch {
         z0: Tensor::from_vec(z0, (b, n), dev)?,
         cond: Tensor::from_vec(cond, (b, c), dev)?,
+        canon: if m > 0 {
+            Some((
+                Tensor::from_vec(canon_e, (b, m, m), dev)?,
+                Tensor::from_vec(canon_b, (b, m), dev)?,
+            ))
+        } else {
+            None
+        },
         step: Tensor::from_vec(step, (b, n), dev)?,
         target: Tensor::from_vec(target, (b, h, n), dev)?,
-        vel_in: Tensor::from_vec(vel_in, (b * h, n + c), dev)?,
+        vel_in: Tensor::from_vec(vel_in, (b * h, n + m + c), dev)?,
         vel_target: Tensor::from_vec(vel_target, (b * h, n), dev)?,
     })
 }
 
+/// The network input `[z, E f(μ + σ_q ⊙ z) + e, cond]` (or `[z, cond]`) of a rollout state.
+fn rollout_input(
+    z: &Tensor,
+    batch: &Batch,
+    graph: Option<&FeatureGraph>,
+) -> candle_core::Result<Tensor> {
+    match (graph, &batch.canon) {
+        (Some(g), Some((e_mat, e_off))) => {
+            let q = z.broadcast_mul(&g.q_std)?.broadcast_add(&g.q_mean)?;
+            let x = g.fk.forward(&q)?.unsqueeze(2)?;
+            let feat = (e_mat.matmul(&x)?.squeeze(2)? + e_off)?;
+            debug_assert_eq!(feat.dims()[1], g.m);
+            Tensor::cat(&[z, &feat, &batch.cond], 1)
+        }
+        _ => Tensor::cat(&[z, &batch.cond], 1),
+    }
+}
+
 /// The CONDOR imitation loss of one batch (scalar tensor).
-fn batch_loss(mlp: &CandleMlp, batch: &Batch, h: usize, w_v: f64) -> candle_core::Result<Tensor> {
+fn batch_loss(
+    mlp: &CandleMlp,
+    batch: &Batch,
+    graph: Option<&FeatureGraph>,
+    h: usize,
+    w_v: f64,
+) -> candle_core::Result<Tensor> {
     let mut z = batch.z0.clone();
     let mut zs = Vec::with_capacity(h);
     for _ in 0..h {
-        let u = Tensor::cat(&[&z, &batch.cond], 1)?;
+        let u = rollout_input(&z, batch, graph)?;
         let y = mlp.forward(&u)?;
         z = (z + y.mul(&batch.step)?)?;
         zs.push(z.clone());
@@ -566,10 +628,14 @@ fn scalar(t: &Tensor) -> Result<f64, PolicyError> {
 fn prepare(
     data: &[(&JointTrajectory, Condition)],
     norm: &Normalizer,
+    features: Option<&TaskFeatures>,
     min_len: usize,
     stride: usize,
 ) -> (Vec<Prepared>, usize) {
     let n = norm.dim();
+    let m = features.map_or(0, TaskFeatures::dim);
+    let mut fws = features.map(TaskFeatures::workspace);
+    let mut fq = vec![0.0; m];
     let mut out = Vec::new();
     let mut skipped = 0;
     let mut zq = vec![0.0; n];
@@ -582,12 +648,24 @@ fn prepare(
         }
         let mut z = Vec::with_capacity(len * n);
         let mut y = Vec::with_capacity(len * n);
+        let mut feat = Vec::with_capacity(len * m);
         for i in 0..len {
             norm.normalize_q(t.q(i), &mut zq);
             norm.normalize_qdot(t.qdot(i), &mut yq);
             z.extend(zq.iter().map(|&v| v as f32));
             y.extend(yq.iter().map(|&v| v as f32));
+            if let (Some(f), Some(ws)) = (features, fws.as_mut()) {
+                f.encode(t.q(i), s, &mut fq, ws);
+                feat.extend(fq.iter().map(|&v| v as f32));
+            }
         }
+        let canon = features.map_or((Vec::new(), Vec::new()), |f| {
+            let (e, b) = f.affine_for(s);
+            (
+                e.iter().map(|&v| v as f32).collect(),
+                b.iter().map(|&v| v as f32).collect(),
+            )
+        });
         let mut c = [0.0f64; CONDITION_FEATURES];
         encode_condition(s, &mut c);
         out.push(Prepared {
@@ -598,6 +676,8 @@ fn prepare(
             step: (0..n)
                 .map(|j| (stride as f64 * t.dt * norm.gain(j)) as f32)
                 .collect(),
+            feat,
+            canon,
         });
     }
     (out, skipped)
@@ -645,11 +725,36 @@ fn check_data(data: &[(&JointTrajectory, Condition)]) -> Result<(), PolicyError>
 pub fn train(
     data: &[(&JointTrajectory, Condition)],
     config: &TrainConfig,
+    meta: PolicyMeta,
+    progress: impl FnMut(usize, f64),
+) -> Result<(Policy, TrainReport), PolicyError> {
+    train_with_features(data, config, meta, None, progress)
+}
+
+/// [`train()`] for a policy with canonical task-space features (`features` with
+/// [`TrainConfig::task_features`]; their normalisation is fitted on `data` here).
+pub fn train_with_features(
+    data: &[(&JointTrajectory, Condition)],
+    config: &TrainConfig,
     mut meta: PolicyMeta,
+    mut features: Option<TaskFeatures>,
     mut progress: impl FnMut(usize, f64),
 ) -> Result<(Policy, TrainReport), PolicyError> {
     config.validate()?;
     check_data(data)?;
+    if config.task_features != features.is_some() {
+        return Err(PolicyError::Data {
+            message: format!(
+                "[train] task_features = {} but task features were{} given",
+                config.task_features,
+                if features.is_some() { "" } else { " not" }
+            ),
+        });
+    }
+    if let Some(f) = features.as_mut() {
+        f.fit(data.iter().map(|(t, s)| (*t, *s)))
+            .map_err(|message| PolicyError::Data { message })?;
+    }
     let h = config.horizon;
     let stride = config.stride;
     // A window spans `h · stride` samples; padded windows only need two samples.
@@ -657,7 +762,32 @@ pub fn train(
     let min_len = if config.pad_end { 2 } else { span + 1 };
     let normalizer = Normalizer::fit(data.iter().map(|(t, _)| *t))?;
     let n = normalizer.dim();
-    let (prepared, skipped_short) = prepare(data, &normalizer, min_len, stride);
+    let m = features.as_ref().map_or(0, TaskFeatures::dim);
+    let (prepared, skipped_short) = prepare(data, &normalizer, features.as_ref(), min_len, stride);
+    let graph = match &features {
+        Some(f) => {
+            let row = |v: &[f64]| {
+                Tensor::from_vec(
+                    v.iter().map(|&x| x as f32).collect::<Vec<_>>(),
+                    (1, n),
+                    &Device::Cpu,
+                )
+            };
+            Some(FeatureGraph {
+                fk: CandleFk::new(
+                    f.spec()
+                        .chains
+                        .iter()
+                        .map(|c| (c.q_offset, c.factors.clone()))
+                        .collect(),
+                ),
+                q_mean: row(&normalizer.q_mean)?,
+                q_std: row(&normalizer.q_std)?,
+                m,
+            })
+        }
+        None => None,
+    };
     let mut cum = vec![0usize];
     for p in &prepared {
         let starts = if config.pad_end {
@@ -677,7 +807,7 @@ pub fn train(
         });
     }
     let spec = MlpSpec {
-        input: normalizer.input_dim(),
+        input: normalizer.input_dim() + m,
         hidden: config.hidden.clone(),
         output: n,
         activation: config.activation,
@@ -698,6 +828,7 @@ pub fn train(
         h,
         stride,
         n,
+        m,
         noise: 0.0,
     };
     let eval = make_batch(
@@ -707,7 +838,7 @@ pub fn train(
         config.batch_size.max(256),
         full,
     )?;
-    let initial_loss = scalar(&batch_loss(&mlp, &eval, h, w_v)?)?;
+    let initial_loss = scalar(&batch_loss(&mlp, &eval, graph.as_ref(), h, w_v)?)?;
 
     let mut opt = AdamW::new(
         mlp.vars(),
@@ -739,7 +870,7 @@ pub fn train(
             config.batch_size,
             w,
         )?;
-        let loss = batch_loss(&mlp, &batch, hk, w_v)?;
+        let loss = batch_loss(&mlp, &batch, graph.as_ref(), hk, w_v)?;
         let l = scalar(&loss)?;
         if !l.is_finite() {
             return Err(PolicyError::Diverged {
@@ -753,7 +884,7 @@ pub fn train(
         }
     }
     let seconds = start.elapsed().as_secs_f64();
-    let final_loss = scalar(&batch_loss(&mlp, &eval, h, w_v)?)?;
+    let final_loss = scalar(&batch_loss(&mlp, &eval, graph.as_ref(), h, w_v)?)?;
     if !final_loss.is_finite() {
         return Err(PolicyError::Diverged {
             iteration: config.iterations,
@@ -761,7 +892,7 @@ pub fn train(
         });
     }
     meta.train_config = Some(config.clone());
-    let policy = Policy::new(normalizer, mlp.to_inference()?, meta)?;
+    let policy = Policy::with_task_features(normalizer, mlp.to_inference()?, features, meta)?;
     Ok((
         policy,
         TrainReport {

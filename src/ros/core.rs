@@ -737,6 +737,10 @@ impl NodeCore {
                 ),
             });
         }
+        if let Some(t) = policy.task_features() {
+            t.check_kinematics(&kin)
+                .map_err(|message| NodeError::Policy { message })?;
+        }
         if safety.min_ee_distance.is_some() {
             let c = kin.chains();
             if c.len() != 2 || c[0].task.dim() != c[1].task.dim() {

@@ -3,6 +3,7 @@
 
 mod augmentation;
 mod bag;
+mod canonical;
 mod check;
 mod common;
 mod data;

@@ -1,0 +1,656 @@
+//! Canonical task-space features: the end-effector positions mapped back by the inverse
+//! of the conditioning group element, `x̃ = g(s)⁻¹ · f(q)` (paper eqs. 7, 23).
+//!
+//! For the letter task `g(s) = ρ_X(σ) ∘ Φ_R(θ) ∘ Φ_S(ln λ)` acts on `X` (the composition
+//! order of eq. 23), so
+//!
+//! `x̃ = Φ_S(−ln λ, Φ_R(−θ, ρ_X(σ)⁻¹ f(q)))`.
+//!
+//! Every transformed demonstration then lands on its original letter: the network sees
+//! where the pen is *on the letter* whatever rotation, scaling or mirror the condition asks
+//! for, alongside the joint positions and the condition itself. By equivariance of `f`
+//! (`f(Φ^Q_g q) = Φ^X_g f(q)`, eq. 7) this is a function of `(q, s)` only, so the policy
+//! is still `π(q, s)`.
+//!
+//! Each continuous factor is a one-parameter affine group `exp(t H)`,
+//! `H = [[A, b], [0, 0]]` (the infinitesimal generator `x ↦ A x + b`, eq. 2), evaluated in
+//! closed form from `H`'s minimal polynomial, checked numerically when the map is built:
+//!
+//! - rotations, `H³ = −H`: `exp(tH) = I + sin t H + (1 − cos t) H²` (Rodrigues);
+//! - scalings, `H² = H`: `exp(tH) = I + (eᵗ − 1) H`;
+//! - translations, `H² = 0`: `exp(tH) = I + t H`.
+//!
+//! `f` is evaluated with the robot's chains stored as [`ChainFactors`], so a policy file
+//! carries its own FK and needs no URDF at run time. Everything per call is
+//! allocation-free, with a caller-owned [`TaskFeatureWorkspace`].
+
+use serde::{Deserialize, Serialize};
+
+use crate::kinematics::{Chain, ChainFactors, ChainWorkspace, Kinematics};
+use crate::symmetry::check::BuiltSymmetry;
+use crate::symmetry::compose::Condition;
+use crate::symmetry::lie::TaskGroupAction;
+
+/// Tolerance on the generator identities (`H³ = −H`, `H² = H`, `H² = 0`) and on affinity.
+const GENERATOR_TOL: f64 = 1e-9;
+
+/// Closed form of a one-parameter affine group, from its generator's minimal polynomial.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OneParamKind {
+    /// `H³ = −H`: rotations, `t` an angle (rad).
+    Rotation,
+    /// `H² = H`: scalings about a point, `t = ln λ`.
+    Scaling,
+    /// `H² = 0`: translations, `t` a length (m).
+    Translation,
+}
+
+/// `Φ(t, x) = exp(t H) x` with `H x = A x + b` on `X = ℝᵐ`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OneParamAction {
+    /// Name of the symmetry (from configuration).
+    pub name: String,
+    /// Which closed form applies.
+    pub kind: OneParamKind,
+    /// Linear part `A` of the generator (`m × m`, row-major; 1/unit of `t`).
+    pub linear: Vec<f64>,
+    /// Offset `b` of the generator (m per unit of `t`).
+    pub offset: Vec<f64>,
+}
+
+impl OneParamAction {
+    /// Reads `A`, `b` off a generator `h(x) = A x + b` on `ℝᵐ` (at `0` and the unit
+    /// vectors), checks it is affine at two more points and classifies `H`; says what is
+    /// wrong otherwise.
+    pub fn from_generator(
+        name: &str,
+        m: usize,
+        h: &dyn Fn(&[f64], &mut [f64]) -> bool,
+    ) -> Result<Self, String> {
+        let mut offset = vec![0.0; m];
+        if !h(&vec![0.0; m], &mut offset) {
+            return Err(format!("`{name}`: generator undefined at 0"));
+        }
+        let mut linear = vec![0.0; m * m];
+        let mut col = vec![0.0; m];
+        for j in 0..m {
+            let mut e = vec![0.0; m];
+            e[j] = 1.0;
+            if !h(&e, &mut col) {
+                return Err(format!("`{name}`: generator undefined at e_{j}"));
+            }
+            for i in 0..m {
+                linear[i * m + j] = col[i] - offset[i];
+            }
+        }
+        let out = Self {
+            name: name.into(),
+            kind: OneParamKind::Translation,
+            linear,
+            offset,
+        };
+        for probe in [0.37, -1.9] {
+            let p: Vec<f64> = (0..m).map(|i| probe * (i as f64 + 1.3)).collect();
+            let mut want = vec![0.0; m];
+            if !h(&p, &mut want) {
+                return Err(format!("`{name}`: generator undefined at {p:?}"));
+            }
+            let mut got = vec![0.0; m];
+            out.generator(&p, &mut got);
+            let err = max_diff(&got, &want);
+            if err > GENERATOR_TOL * (1.0 + max_abs(&want)) {
+                return Err(format!(
+                    "`{name}` is not an affine action on X (residual {err:.1e}): canonical \
+                     task features need rotations, scalings or translations"
+                ));
+            }
+        }
+        // Powers of H = [[A, b], [0, 0]] as (m+1)² matrices.
+        let k = m + 1;
+        let mut hm = vec![0.0; k * k];
+        for i in 0..m {
+            hm[i * k..i * k + m].copy_from_slice(&out.linear[i * m..(i + 1) * m]);
+            hm[i * k + m] = out.offset[i];
+        }
+        let h2 = matmul(&hm, &hm, k);
+        let h3 = matmul(&h2, &hm, k);
+        let scale = 1.0 + max_abs(&hm);
+        let close = |a: &[f64], b: &[f64]| max_diff(a, b) <= GENERATOR_TOL * scale;
+        let neg_h: Vec<f64> = hm.iter().map(|v| -v).collect();
+        let zero = vec![0.0; k * k];
+        let kind = if max_abs(&hm) == 0.0 {
+            return Err(format!("`{name}`: the generator is zero"));
+        } else if close(&h2, &zero) {
+            OneParamKind::Translation
+        } else if close(&h2, &hm) {
+            OneParamKind::Scaling
+        } else if close(&h3, &neg_h) {
+            OneParamKind::Rotation
+        } else {
+            return Err(format!(
+                "`{name}`: the generator satisfies none of H³ = −H, H² = H, H² = 0, so its \
+                 group has no closed form here"
+            ));
+        };
+        Ok(Self { kind, ..out })
+    }
+
+    /// Task-space dimension `m`.
+    pub fn dim(&self) -> usize {
+        self.offset.len()
+    }
+
+    /// `out = A x + b` (the generator at `x`).
+    #[inline]
+    fn generator(&self, x: &[f64], out: &mut [f64]) {
+        let m = self.offset.len();
+        for i in 0..m {
+            let row = &self.linear[i * m..(i + 1) * m];
+            out[i] = self.offset[i] + row.iter().zip(x).map(|(a, v)| a * v).sum::<f64>();
+        }
+    }
+
+    /// `x ← exp(t H) x` in place, with two scratch vectors of length `m`.
+    #[inline]
+    pub fn apply(&self, t: f64, x: &mut [f64], h: &mut [f64], h2: &mut [f64]) {
+        self.generator(x, h);
+        match self.kind {
+            OneParamKind::Translation => {
+                for (xi, hi) in x.iter_mut().zip(h.iter()) {
+                    *xi += t * hi;
+                }
+            }
+            OneParamKind::Scaling => {
+                let c = t.exp_m1();
+                for (xi, hi) in x.iter_mut().zip(h.iter()) {
+                    *xi += c * hi;
+                }
+            }
+            OneParamKind::Rotation => {
+                // H² [x; 1] = [A h(x); 0].
+                let m = self.offset.len();
+                for (i, o) in h2.iter_mut().enumerate() {
+                    let row = &self.linear[i * m..(i + 1) * m];
+                    *o = row.iter().zip(h.iter()).map(|(a, v)| a * v).sum::<f64>();
+                }
+                let (s, c) = t.sin_cos();
+                let c1 = 1.0 - c;
+                for i in 0..m {
+                    x[i] += s * h[i] + c1 * h2[i];
+                }
+            }
+        }
+    }
+}
+
+fn matmul(a: &[f64], b: &[f64], k: usize) -> Vec<f64> {
+    let mut c = vec![0.0; k * k];
+    for i in 0..k {
+        for l in 0..k {
+            let ail = a[i * k + l];
+            for j in 0..k {
+                c[i * k + j] += ail * b[l * k + j];
+            }
+        }
+    }
+    c
+}
+
+fn max_abs(a: &[f64]) -> f64 {
+    a.iter().fold(0.0, |m, v| m.max(v.abs()))
+}
+
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
+}
+
+/// A signed permutation of `X` as stored: `(ρ x)_i = signs_i · x_{perm_i}`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StoredPermutation {
+    /// `perm[i]`: which input coordinate lands in output slot `i`.
+    pub perm: Vec<usize>,
+    /// `±1` per output slot.
+    pub signs: Vec<f64>,
+}
+
+/// The inverse action `x ↦ g(s)⁻¹ x` of the letter group `(SO(2) × S) ⋊ C2` (or a
+/// sub-group) on `X`, in the composition order `ρ_X(σ) ∘ Φ_R(θ) ∘ Φ_S(ln λ)` (eq. 23).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CanonicalMap {
+    /// Task-space dimension `m`.
+    pub dim: usize,
+    /// `ρ_X(−1)`, the reflection descended to `X` (absent: σ = −1 is not available).
+    pub reflection: Option<StoredPermutation>,
+    /// `Φ_R`, parameter `θ` (rad).
+    pub rotation: Option<OneParamAction>,
+    /// `Φ_S`, parameter `ln λ`.
+    pub scaling: Option<OneParamAction>,
+}
+
+impl CanonicalMap {
+    /// The map of the composition `order = [M, R, S]` (or `[M, R]`) of `built`: `M` must
+    /// descend to a signed permutation of `X`, `R` and `S` must be affine (closed forms above).
+    pub fn from_symmetries(
+        kin: &Kinematics,
+        built: &[BuiltSymmetry],
+        order: &[String],
+    ) -> Result<Self, String> {
+        let m = kin.task_dim();
+        let (_, rot, sc) = crate::data::augmentation::letter_group(built, order)?;
+        let mn = &order[0];
+        let reflection = match built.iter().find(|b| b.name() == mn) {
+            Some(BuiltSymmetry::Finite {
+                rho_x: Some(rho), ..
+            }) => StoredPermutation {
+                perm: rho.perm.clone(),
+                signs: rho.signs.clone(),
+            },
+            _ => {
+                return Err(format!(
+                    "`{mn}` does not descend to a signed permutation of X, which canonical \
+                     task features need"
+                ))
+            }
+        };
+        let one = |a: &dyn TaskGroupAction| -> Result<OneParamAction, String> {
+            if a.dim() != m || a.algebra_dim() != 1 {
+                return Err(format!(
+                    "`{}` must be a one-parameter group on X = R^{m}",
+                    a.name()
+                ));
+            }
+            let field = a.generator_field(&[1.0]);
+            OneParamAction::from_generator(a.name(), m, &|x, out| field.eval(x, out))
+        };
+        Ok(Self {
+            dim: m,
+            reflection: Some(reflection),
+            rotation: Some(one(rot)?),
+            scaling: sc.map(one).transpose()?,
+        })
+    }
+
+    /// Checks dimensions, the permutation and the generators' shapes; says what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        let m = self.dim;
+        if m == 0 {
+            return Err("task dimension is 0".into());
+        }
+        if let Some(r) = &self.reflection {
+            crate::symmetry::finite::SignedPermutation::new(r.perm.clone(), r.signs.clone())
+                .map_err(|e| format!("reflection: {e}"))?;
+            if r.perm.len() != m {
+                return Err(format!("reflection acts on R^{}, not R^{m}", r.perm.len()));
+            }
+        }
+        for a in [&self.rotation, &self.scaling].into_iter().flatten() {
+            if a.linear.len() != m * m || a.offset.len() != m {
+                return Err(format!("`{}`: generator is not {m}×{m} + {m}", a.name));
+            }
+            if a.linear.iter().chain(&a.offset).any(|v| !v.is_finite()) {
+                return Err(format!("`{}`: generator is not finite", a.name));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks that the map can undo `s`: a reflection needs `ρ_X`, a scaling other than 1
+    /// needs `Φ_S`, a rotation other than 0 needs `Φ_R`.
+    pub fn supports(&self, s: &Condition) -> Result<(), String> {
+        if s.reflection == -1 && self.reflection.is_none() {
+            return Err("the policy's group has no reflection (σ = −1)".into());
+        }
+        if s.scale != 1.0 && self.scaling.is_none() {
+            return Err(format!(
+                "the policy's group has no scaling (λ = {})",
+                s.scale
+            ));
+        }
+        if s.theta != 0.0 && self.rotation.is_none() {
+            return Err(format!(
+                "the policy's group has no rotation (θ = {})",
+                s.theta
+            ));
+        }
+        Ok(())
+    }
+
+    /// `out = g(s)⁻¹ x` (m); `h`, `h2` are scratch vectors of length `m`.
+    #[inline]
+    pub fn apply_inverse(
+        &self,
+        s: &Condition,
+        x: &[f64],
+        out: &mut [f64],
+        h: &mut [f64],
+        h2: &mut [f64],
+    ) {
+        match (&self.reflection, s.reflection == -1) {
+            // ρ⁻¹: (ρ y)_i = s_i y_{π(i)}  ⇒  (ρ⁻¹ x)_{π(i)} = s_i x_i.
+            (Some(r), true) => {
+                for i in 0..self.dim {
+                    out[r.perm[i]] = r.signs[i] * x[i];
+                }
+            }
+            _ => out.copy_from_slice(x),
+        }
+        if let Some(r) = &self.rotation {
+            r.apply(-s.theta, out, h, h2);
+        }
+        if let Some(sc) = &self.scaling {
+            sc.apply(-s.scale.ln(), out, h, h2);
+        }
+    }
+}
+
+/// One chain of the policy's FK: where it reads `q`, and its factors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TaskChain {
+    /// Index of the chain's first joint in `q`.
+    pub q_offset: usize,
+    /// The chain's FK (base frame of the chain; m or rad).
+    pub factors: ChainFactors,
+}
+
+/// Everything the canonical features need, as stored in the policy sidecar.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TaskFeatureSpec {
+    /// The chains whose task points form `x = f(q)`, in the order of `X`.
+    pub chains: Vec<TaskChain>,
+    /// `x ↦ g(s)⁻¹ x`.
+    pub map: CanonicalMap,
+    /// Mean of `x̃` over the training samples (m).
+    pub mean: Vec<f64>,
+    /// Std of `x̃` over the training samples, floored at [`super::STD_FLOOR`] (m).
+    pub std: Vec<f64>,
+}
+
+/// Canonical task-space features ready to evaluate: the spec plus its rebuilt chains.
+#[derive(Debug, Clone)]
+pub struct TaskFeatures {
+    spec: TaskFeatureSpec,
+    chains: Vec<Chain>,
+}
+
+impl PartialEq for TaskFeatures {
+    fn eq(&self, other: &Self) -> bool {
+        self.spec == other.spec
+    }
+}
+
+/// Scratch state of [`TaskFeatures::encode`].
+#[derive(Debug, Clone)]
+pub struct TaskFeatureWorkspace {
+    chains: Vec<ChainWorkspace>,
+    x: Vec<f64>,
+    xt: Vec<f64>,
+    h: Vec<f64>,
+    h2: Vec<f64>,
+}
+
+impl TaskFeatureWorkspace {
+    /// Total number of `f64` scratch values held (for checking that it never grows).
+    pub fn capacity(&self) -> usize {
+        self.x.capacity() + self.xt.capacity() + self.h.capacity() + self.h2.capacity()
+    }
+}
+
+impl TaskFeatures {
+    /// Features for `kin`'s chains and the group `order` of `built`, with the identity
+    /// normalisation (fit it with [`TaskFeatures::fit`]).
+    pub fn for_robot(
+        kin: &Kinematics,
+        built: &[BuiltSymmetry],
+        order: &[String],
+    ) -> Result<Self, String> {
+        let map = CanonicalMap::from_symmetries(kin, built, order)?;
+        let chains = kin
+            .chains()
+            .iter()
+            .enumerate()
+            .map(|(i, c)| TaskChain {
+                q_offset: kin.q_offset(i),
+                factors: c.factors(),
+            })
+            .collect();
+        let m = map.dim;
+        Self::new(TaskFeatureSpec {
+            chains,
+            map,
+            mean: vec![0.0; m],
+            std: vec![1.0; m],
+        })
+    }
+
+    /// Rebuilds the chains of `spec` and checks it; says what is wrong.
+    pub fn new(spec: TaskFeatureSpec) -> Result<Self, String> {
+        spec.map.validate().map_err(|e| format!("map: {e}"))?;
+        let m = spec.map.dim;
+        let chains: Vec<Chain> = spec
+            .chains
+            .iter()
+            .enumerate()
+            .map(|(i, c)| Chain::from_factors(&c.factors).map_err(|e| format!("chain {i}: {e}")))
+            .collect::<Result<_, _>>()?;
+        let sum: usize = chains.iter().map(|c| c.task.dim()).sum();
+        if sum != m {
+            return Err(format!(
+                "the chains give {sum} task coordinates, the map acts on {m}"
+            ));
+        }
+        if spec.mean.len() != m || spec.std.len() != m {
+            return Err(format!(
+                "normalisation has {} means and {} stds for {m} coordinates",
+                spec.mean.len(),
+                spec.std.len()
+            ));
+        }
+        if let Some(j) = spec.mean.iter().position(|v| !v.is_finite()) {
+            return Err(format!("mean[{j}] is not finite"));
+        }
+        if let Some(j) = spec.std.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(format!(
+                "std[{j}] = {} must be positive and finite",
+                spec.std[j]
+            ));
+        }
+        Ok(Self { spec, chains })
+    }
+
+    /// The stored description.
+    pub fn spec(&self) -> &TaskFeatureSpec {
+        &self.spec
+    }
+
+    /// Number of features `m` (the task-space dimension).
+    pub fn dim(&self) -> usize {
+        self.spec.map.dim
+    }
+
+    /// Number of joints read: one past the highest joint any chain reads.
+    pub fn joints_read(&self) -> usize {
+        self.spec
+            .chains
+            .iter()
+            .zip(&self.chains)
+            .map(|(t, c)| t.q_offset + c.dof())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Checks that the stored FK is `kin`'s: same task dimension and the same `f(q)` to
+    /// 1e-9 (m) at zero and at 16 pseudo-random configurations within ±π; says where not.
+    pub fn check_kinematics(&self, kin: &Kinematics) -> Result<(), String> {
+        if kin.task_dim() != self.dim() || kin.dof() < self.joints_read() {
+            return Err(format!(
+                "the policy's FK reads {} joints into {} task coordinates, the robot has {} \
+                 joints and {}",
+                self.joints_read(),
+                self.dim(),
+                kin.dof(),
+                kin.task_dim()
+            ));
+        }
+        let mut kw = kin.workspace();
+        let mut fw = self.workspace();
+        let mut q = vec![0.0; kin.dof()];
+        for k in 0..17u32 {
+            for (j, v) in q.iter_mut().enumerate() {
+                // A fixed, irrational-step sequence in (−π, π): no RNG needed.
+                let u = ((k as f64 + 1.0) * 0.618_033_988_75 + j as f64 * 0.414_213_562_37).fract();
+                *v = if k == 0 {
+                    0.0
+                } else {
+                    (2.0 * u - 1.0) * std::f64::consts::PI
+                };
+            }
+            let want = kin.forward(&q, &mut kw);
+            let got = self.forward(&q, &mut fw);
+            let err = max_diff(got, want.as_slice());
+            if err.is_nan() || err > 1e-9 {
+                return Err(format!(
+                    "the policy's FK differs from the robot's by {err:.2e} at q = {q:?}: it \
+                     was trained on another robot geometry"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// A workspace for [`TaskFeatures::encode`] (allocates; setup only).
+    pub fn workspace(&self) -> TaskFeatureWorkspace {
+        let m = self.dim();
+        TaskFeatureWorkspace {
+            chains: self.chains.iter().map(Chain::workspace).collect(),
+            x: vec![0.0; m],
+            xt: vec![0.0; m],
+            h: vec![0.0; m],
+            h2: vec![0.0; m],
+        }
+    }
+
+    /// `x = f(q)` into the workspace and returned (m, chain base frames).
+    pub fn forward<'w>(&self, q: &[f64], ws: &'w mut TaskFeatureWorkspace) -> &'w [f64] {
+        let mut xo = 0;
+        for ((t, c), cw) in self
+            .spec
+            .chains
+            .iter()
+            .zip(&self.chains)
+            .zip(&mut ws.chains)
+        {
+            c.forward(&q[t.q_offset..t.q_offset + c.dof()], cw);
+            let d = c.task.dim();
+            c.task_point(cw, &mut ws.x[xo..xo + d]);
+            xo += d;
+        }
+        &ws.x
+    }
+
+    /// Un-normalised canonical point `x̃ = g(s)⁻¹ f(q)` (m) into `out`.
+    pub fn canonical(
+        &self,
+        q: &[f64],
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut TaskFeatureWorkspace,
+    ) {
+        self.forward(q, ws);
+        let TaskFeatureWorkspace { x, h, h2, .. } = ws;
+        self.spec.map.apply_inverse(s, x, out, h, h2);
+    }
+
+    /// The network's features `(x̃ − mean) ⊘ std` into `out` (length `m`). Allocation-free.
+    #[inline]
+    pub fn encode(&self, q: &[f64], s: &Condition, out: &mut [f64], ws: &mut TaskFeatureWorkspace) {
+        let mut xt = std::mem::take(&mut ws.xt);
+        self.canonical(q, s, &mut xt, ws);
+        for (j, o) in out.iter_mut().enumerate() {
+            *o = (xt[j] - self.spec.mean[j]) / self.spec.std[j];
+        }
+        ws.xt = xt;
+    }
+
+    /// The affine map `x ↦ (g(s)⁻¹ x − mean) ⊘ std` as `(E, e)`, `E` row-major `m × m`:
+    /// what training applies to its differentiable FK. Allocates.
+    pub fn affine_for(&self, s: &Condition) -> (Vec<f64>, Vec<f64>) {
+        let m = self.dim();
+        let (mut h, mut h2) = (vec![0.0; m], vec![0.0; m]);
+        let mut e = vec![0.0; m];
+        self.spec
+            .map
+            .apply_inverse(s, &vec![0.0; m], &mut e, &mut h, &mut h2);
+        let mut big = vec![0.0; m * m];
+        let mut col = vec![0.0; m];
+        for j in 0..m {
+            let mut u = vec![0.0; m];
+            u[j] = 1.0;
+            self.spec
+                .map
+                .apply_inverse(s, &u, &mut col, &mut h, &mut h2);
+            for i in 0..m {
+                big[i * m + j] = (col[i] - e[i]) / self.spec.std[i];
+            }
+        }
+        for i in 0..m {
+            e[i] = (e[i] - self.spec.mean[i]) / self.spec.std[i];
+        }
+        (big, e)
+    }
+
+    /// Fits the normalisation of `x̃` over every sample of `data` (mean and std, floored at
+    /// [`super::STD_FLOOR`]).
+    pub fn fit<'a>(
+        &mut self,
+        data: impl IntoIterator<Item = (&'a crate::data::letters::JointTrajectory, Condition)>,
+    ) -> Result<(), String> {
+        let m = self.dim();
+        let mut ws = self.workspace();
+        let mut xt = vec![0.0; m];
+        let mut all = Vec::new();
+        for (t, s) in data {
+            if t.n < self.joints_read() {
+                return Err(format!(
+                    "demonstration {} has {} joints, the features read {}",
+                    t.demo,
+                    t.n,
+                    self.joints_read()
+                ));
+            }
+            self.spec.map.supports(&s)?;
+            for i in 0..t.len() {
+                self.canonical(t.q(i), &s, &mut xt, &mut ws);
+                all.extend_from_slice(&xt);
+            }
+        }
+        let count = all.len() / m;
+        if count == 0 {
+            return Err("no samples to fit the task features on".into());
+        }
+        let c = count as f64;
+        let mut mean = vec![0.0; m];
+        for row in all.chunks_exact(m) {
+            for j in 0..m {
+                mean[j] += row[j] / c;
+            }
+        }
+        let mut var = vec![0.0; m];
+        for row in all.chunks_exact(m) {
+            for j in 0..m {
+                var[j] += (row[j] - mean[j]).powi(2) / c;
+            }
+        }
+        self.spec.std = var.iter().map(|v| v.sqrt().max(super::STD_FLOOR)).collect();
+        self.spec.mean = mean;
+        if self.spec.mean.iter().any(|v| !v.is_finite()) {
+            return Err("the canonical task points are not finite".into());
+        }
+        Ok(())
+    }
+}
