@@ -2,7 +2,9 @@
 //!
 //! - `tick/*` (criterion): `NodeCore::load_inputs` + `NodeCore::tick` (FK + Jacobian, MLP
 //!   forward, safety QP, command) along a path of joint states, for the planar dual arm with
-//!   the shipped policy and RB-Y1's 14 arm joints with a synthetic policy of the same shape.
+//!   the shipped policy (canonical task features `x̃ = g(s)⁻¹ f(q)`) and RB-Y1's 14 arm joints
+//!   with a synthetic policy of the same shape; `*-no-xt` ticks run a synthetic policy of the
+//!   same widths without task features, the reference for what `x̃` costs.
 //!   A second pass times 20 000 single ticks and prints median and p99.
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
 //!   second DDS participant publishing JointState and timing the arrival of the command the
@@ -19,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use crossym::config::Config;
-use crossym::policy::Policy;
+use crossym::policy::{Policy, TaskFeatures};
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
 use crossym::ros::{msg, NodeConfig, NodeCore, Trigger};
 use crossym::safety::SafetySettings;
@@ -28,10 +30,11 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The node core and a path of joint states for one robot.
-fn setup(robot: &str) -> Option<(NodeCore, Vec<Vec<f64>>)> {
+/// The node core and a path of joint states for one robot; `features`: the policy reads
+/// the canonical task point `x̃`.
+fn setup(robot: &str, features: bool) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     let (cfg_name, synthetic) = match robot {
-        "planar" => ("letters.toml", false),
+        "planar" => ("letters.toml", !features),
         _ => ("rby1.toml", true),
     };
     if synthetic && !root().join("../shared/robots/rby1a/model.urdf").exists() {
@@ -43,7 +46,11 @@ fn setup(robot: &str) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     let kin = robot.kinematics;
     let n = kin.dof();
     let policy = if synthetic {
-        Policy::synthetic(n, kin.joint_names().to_vec(), &[128, 128, 128], 1)
+        let task = features.then(|| {
+            let (built, _) = crossym::symmetry::check::build(&kin, &cfg.symmetries).unwrap();
+            TaskFeatures::for_robot(&kin, &built, &cfg.composition.order).unwrap()
+        });
+        Policy::synthetic_with(n, kin.joint_names().to_vec(), &[128, 128, 128], 1, task)
     } else {
         Policy::load(root().join("data/policies/pi_mrt_planar.safetensors")).unwrap()
     };
@@ -73,8 +80,13 @@ fn bench_tick(c: &mut Criterion) {
     let mut g = c.benchmark_group("tick");
     g.measurement_time(Duration::from_secs(4))
         .warm_up_time(Duration::from_secs(1));
-    for robot in ["planar", "rby1"] {
-        let Some((mut core, path)) = setup(robot) else {
+    for (robot, features) in [
+        ("planar", true),
+        ("planar", false),
+        ("rby1", true),
+        ("rby1", false),
+    ] {
+        let Some((mut core, path)) = setup(robot, features) else {
             continue;
         };
         let mut gate = core.input_gate();
@@ -94,7 +106,11 @@ fn bench_tick(c: &mut Criterion) {
             k += 1;
             black_box(r);
         };
-        let label = format!("{robot}_{}dof", core.joint_names().len());
+        let label = format!(
+            "{robot}_{}dof{}",
+            core.joint_names().len(),
+            if features { "" } else { "-no-xt" }
+        );
         g.bench_function(&label, |b| b.iter(|| step(&mut core)));
         // Percentiles of single ticks.
         let mut t: Vec<f64> = (0..20_000)
@@ -118,7 +134,7 @@ fn bench_tick(c: &mut Criterion) {
 
 /// joint_states → command latency through the real node over loopback DDS.
 fn bench_latency(_c: &mut Criterion) {
-    let Some((core, path)) = setup("planar") else {
+    let Some((core, path)) = setup("planar", true) else {
         return;
     };
     let _ = core; // the node builds its own core below with trigger = joint_states

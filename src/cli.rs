@@ -466,19 +466,22 @@ fn letter_demos(
     Ok(letters.build(kin, &cfg.base_dir)?)
 }
 
-/// The canonical task-space features `[train] task_features` asks for (`None` without).
+/// The canonical task-space features `[train] task_features` asks for (`None` without),
+/// restricted to the sub-group `group` the policy is trained on.
 pub(crate) fn task_features_for(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,
     built: &[crossym::symmetry::check::BuiltSymmetry],
     tc: &crossym::policy::TrainConfig,
+    group: crossym::data::augmentation::SubGroup,
 ) -> anyhow::Result<Option<crossym::policy::TaskFeatures>> {
     if !tc.task_features {
         return Ok(None);
     }
-    crossym::policy::TaskFeatures::for_robot(kin, built, &cfg.composition.order)
-        .map(Some)
-        .map_err(|e| anyhow::anyhow!("{}: [train] task_features: {e}", cfg.path.display()))
+    let mut f = crossym::policy::TaskFeatures::for_robot(kin, built, &cfg.composition.order)
+        .map_err(|e| anyhow::anyhow!("{}: [train] task_features: {e}", cfg.path.display()))?;
+    f.restrict_to(group);
+    Ok(Some(f))
 }
 
 /// Loads a policy and checks that it drives `kin`'s joints, in the same order.
@@ -718,7 +721,7 @@ fn train(
     });
     let meta = crossym::policy::PolicyMeta::new(&kin.robot, kin.joint_names().to_vec(), symmetry);
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
-    let features = task_features_for(&cfg, kin, &built, &tc)?;
+    let features = task_features_for(&cfg, kin, &built, &tc, g)?;
     let bar = indicatif::ProgressBar::new(tc.iterations as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(

@@ -89,7 +89,13 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             kin.joint_names().to_vec(),
             serde_json::json!({ "group": "G_R", "rotation_step_deg": step }),
         );
-        let features = super::task_features_for(&cfg, kin, &built, &tc)?;
+        let features = super::task_features_for(
+            &cfg,
+            kin,
+            &built,
+            &tc,
+            crossym::data::augmentation::SubGroup::R,
+        )?;
         let (policy, report) =
             crossym::policy::train_with_features(&data, &tc, meta, features, |_, _| {})?;
         let mut curve = Vec::new();

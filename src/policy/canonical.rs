@@ -428,6 +428,23 @@ impl TaskFeatures {
         })
     }
 
+    /// Keeps only the factors of the sub-group the policy is trained on (`Original`: none,
+    /// so `x̃ = f(q)`; `G_R`: the rotation; `G_RT`: rotation and scaling; `G_MRT`: all): a
+    /// policy trained without a symmetry must not have it undone in its inputs either.
+    pub fn restrict_to(&mut self, group: crate::data::augmentation::SubGroup) {
+        use crate::data::augmentation::SubGroup;
+        let map = &mut self.spec.map;
+        if group != SubGroup::MRT {
+            map.reflection = None;
+        }
+        if matches!(group, SubGroup::Identity | SubGroup::R) {
+            map.scaling = None;
+        }
+        if group == SubGroup::Identity {
+            map.rotation = None;
+        }
+    }
+
     /// Rebuilds the chains of `spec` and checks it; says what is wrong.
     pub fn new(spec: TaskFeatureSpec) -> Result<Self, String> {
         spec.map.validate().map_err(|e| format!("map: {e}"))?;

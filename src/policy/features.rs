@@ -114,7 +114,7 @@ impl Normalizer {
         self.q_mean.len()
     }
 
-    /// Network input dimension `n + 4`.
+    /// Network input dimension `n + 4` without task features (see [`super::Policy::input_dim`]).
     pub fn input_dim(&self) -> usize {
         self.dim() + CONDITION_FEATURES
     }
@@ -184,7 +184,8 @@ impl Normalizer {
         self.v_scale[j] / self.q_std[j]
     }
 
-    /// Network input `u = [z, cos θ, sin θ, ln λ, σ]`; `out` of length `n + 4`.
+    /// Network input `u = [z, cos θ, sin θ, ln λ, σ]` of a policy without task features;
+    /// `out` of length `n + 4`.
     #[inline]
     pub fn encode(&self, q: &[f64], s: &Condition, out: &mut [f64]) {
         let n = self.q_mean.len();

@@ -55,7 +55,7 @@ impl Activation {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MlpSpec {
-    /// Input width (`n + 4` for a policy).
+    /// Input width (`n + 4` for a policy, `n + m + 4` with `m` task features).
     pub input: usize,
     /// Hidden-layer widths, input side first (may be empty: a linear map).
     pub hidden: Vec<usize>,

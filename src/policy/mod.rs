@@ -1,7 +1,8 @@
 //! Symmetry-conditioned joint-space policies `π(q, s) → q̇`, `s = (θ, λ, σ)` (paper
 //! Sec. VI-A), learned by imitation as in CONDOR (Pérez-Dattari & Kober 2023).
 //!
-//! The policy is an MLP on `u = [(q − μ) ⊘ σ_q, cos θ, sin θ, ln λ, σ]` predicting
+//! The policy is an MLP on `u = [(q − μ) ⊘ σ_q, (x̃ − μ_x) ⊘ σ_x, cos θ, sin θ, ln λ, σ]`
+//! (the canonical task point `x̃ = g(s)⁻¹ f(q)` only with [`TaskFeatures`]) predicting
 //! `y = q̇ ⊘ v`; it is trained by rolling it out with Euler steps
 //! `q_{k+1} = q_k + Δt π(q_k, s)` over short windows of the demonstrations and matching
 //! the demonstrated positions (plus a weighted velocity term).

@@ -259,3 +259,56 @@ fn canonical_features_undo_the_rby1_letter_and_pan_groups() {
         }
     }
 }
+
+#[test]
+fn features_of_a_sub_group_policy_undo_only_that_sub_group() {
+    use crossym::data::augmentation::SubGroup;
+    let (cfg, robot, demos, full) = letter_features();
+    let demo = &demos.demos[0];
+    let m = full.dim();
+    let rot = Condition {
+        theta: 0.5,
+        ..Condition::IDENTITY
+    };
+    let scaled = Condition { scale: 0.6, ..rot };
+    let mirrored = Condition {
+        reflection: -1,
+        ..scaled
+    };
+    let nominal =
+        nominal_trajectories(&cfg, &robot.kinematics, demo, &[rot, scaled, mirrored]).unwrap();
+    // Largest distance of x̃ from the original letter over each trajectory.
+    let off = |f: &TaskFeatures, k: usize| {
+        let (mut ws, mut xt) = (f.workspace(), vec![0.0; m]);
+        let a = &nominal[k];
+        (0..a.traj.len())
+            .map(|i| {
+                f.canonical(a.traj.q(i), &a.condition, &mut xt, &mut ws);
+                common::dist(&xt, &demo.x[i * m..(i + 1) * m])
+            })
+            .fold(0.0, f64::max)
+    };
+    for (group, undone) in [
+        (SubGroup::Identity, [false, false, false]),
+        (SubGroup::R, [true, false, false]),
+        (SubGroup::RT, [true, true, false]),
+        (SubGroup::MRT, [true, true, true]),
+    ] {
+        let mut f = full.clone();
+        f.restrict_to(group);
+        let map = &f.spec().map;
+        assert_eq!(
+            [
+                map.rotation.is_some(),
+                map.scaling.is_some(),
+                map.reflection.is_some()
+            ],
+            undone,
+            "{group:?}"
+        );
+        for (k, &u) in undone.iter().enumerate() {
+            let d = off(&f, k);
+            assert_eq!(d < 1e-5, u, "{group:?}, trajectory {k}: x̃ off by {d}");
+        }
+    }
+}
