@@ -634,8 +634,17 @@ fn train_cli_writes_weights_sidecar_and_loss_log() {
             "train = { rotation_step_deg = 180.0,",
         )
         .replace("hidden = [128, 128, 128]", "hidden = [16]")
-        .replace("iterations = 12000", "iterations = 30")
-        .replace("batch_size = 256", "batch_size = 8");
+        .replace("batch_size = 256", "batch_size = 8")
+        .lines()
+        .map(|l| {
+            if l.starts_with("iterations = ") {
+                "iterations = 30"
+            } else {
+                l
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
     let config = dir.join("tiny.toml");
     std::fs::write(&config, text).unwrap();
     let out_path = dir.join("p.safetensors");
@@ -650,6 +659,10 @@ fn train_cli_writes_weights_sidecar_and_loss_log() {
     assert!(sidecar_path(&out_path).exists());
     let tc = policy.meta.train_config.clone().unwrap();
     assert_eq!((tc.iterations, tc.hidden.clone()), (30, vec![16]));
+    // The shipped recipe reads the canonical task point, restricted to G_RT (no reflection).
+    assert!(tc.task_features);
+    let map = &policy.task_features().expect("task features").spec().map;
+    assert!(map.rotation.is_some() && map.scaling.is_some() && map.reflection.is_none());
     // The loss log: every `log_every` iterations, with the schedule's learning rate.
     let log = std::fs::read_to_string(dir.join("p.loss.csv")).unwrap();
     let mut lines = log.lines();
