@@ -107,12 +107,19 @@ impl OneParamAction {
                 ));
             }
         }
-        // Powers of H = [[A, b], [0, 0]] as (m+1)² matrices.
+        let kind = out.classify()?;
+        Ok(Self { kind, ..out })
+    }
+
+    /// Which closed form the generator admits, from the powers of `H = [[A, b], [0, 0]]`
+    /// (tolerance 1e-9 relative); an error for a zero generator or none of the three.
+    pub fn classify(&self) -> Result<OneParamKind, String> {
+        let (m, name) = (self.offset.len(), &self.name);
         let k = m + 1;
         let mut hm = vec![0.0; k * k];
         for i in 0..m {
-            hm[i * k..i * k + m].copy_from_slice(&out.linear[i * m..(i + 1) * m]);
-            hm[i * k + m] = out.offset[i];
+            hm[i * k..i * k + m].copy_from_slice(&self.linear[i * m..(i + 1) * m]);
+            hm[i * k + m] = self.offset[i];
         }
         let h2 = matmul(&hm, &hm, k);
         let h3 = matmul(&h2, &hm, k);
@@ -120,21 +127,20 @@ impl OneParamAction {
         let close = |a: &[f64], b: &[f64]| max_diff(a, b) <= GENERATOR_TOL * scale;
         let neg_h: Vec<f64> = hm.iter().map(|v| -v).collect();
         let zero = vec![0.0; k * k];
-        let kind = if max_abs(&hm) == 0.0 {
-            return Err(format!("`{name}`: the generator is zero"));
+        if max_abs(&hm) == 0.0 {
+            Err(format!("`{name}`: the generator is zero"))
         } else if close(&h2, &zero) {
-            OneParamKind::Translation
+            Ok(OneParamKind::Translation)
         } else if close(&h2, &hm) {
-            OneParamKind::Scaling
+            Ok(OneParamKind::Scaling)
         } else if close(&h3, &neg_h) {
-            OneParamKind::Rotation
+            Ok(OneParamKind::Rotation)
         } else {
-            return Err(format!(
+            Err(format!(
                 "`{name}`: the generator satisfies none of H³ = −H, H² = H, H² = 0, so its \
                  group has no closed form here"
-            ));
-        };
-        Ok(Self { kind, ..out })
+            ))
+        }
     }
 
     /// Task-space dimension `m`.
@@ -274,7 +280,8 @@ impl CanonicalMap {
         })
     }
 
-    /// Checks dimensions, the permutation and the generators' shapes; says what is wrong.
+    /// Checks dimensions, the permutation, the generators' shapes and that each generator
+    /// is of its stored kind; says what is wrong.
     pub fn validate(&self) -> Result<(), String> {
         let m = self.dim;
         if m == 0 {
@@ -293,6 +300,13 @@ impl CanonicalMap {
             }
             if a.linear.iter().chain(&a.offset).any(|v| !v.is_finite()) {
                 return Err(format!("`{}`: generator is not finite", a.name));
+            }
+            let kind = a.classify()?;
+            if kind != a.kind {
+                return Err(format!(
+                    "`{}`: stored as {:?} but its generator is a {kind:?}",
+                    a.name, a.kind
+                ));
             }
         }
         Ok(())
@@ -586,6 +600,7 @@ impl TaskFeatures {
     /// The network's features `(x̃ − mean) ⊘ std` into `out` (length `m`). Allocation-free.
     #[inline]
     pub fn encode(&self, q: &[f64], s: &Condition, out: &mut [f64], ws: &mut TaskFeatureWorkspace) {
+        // Borrow the scratch vector out of the workspace (an empty Vec does not allocate).
         let mut xt = std::mem::take(&mut ws.xt);
         self.canonical(q, s, &mut xt, ws);
         for (j, o) in out.iter_mut().enumerate() {
@@ -669,5 +684,95 @@ impl TaskFeatures {
             return Err("the canonical task points are not finite".into());
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn action(h: &dyn Fn(&[f64], &mut [f64]) -> bool) -> Result<OneParamAction, String> {
+        OneParamAction::from_generator("g", 2, h)
+    }
+
+    fn apply(a: &OneParamAction, t: f64, x: [f64; 2]) -> [f64; 2] {
+        let (mut x, mut h, mut h2) = (x, [0.0; 2], [0.0; 2]);
+        a.apply(t, &mut x, &mut h, &mut h2);
+        x
+    }
+
+    #[test]
+    fn closed_forms_match_the_groups() {
+        let c = [0.3, -1.2];
+        // Rotation about c: h(x) = J (x − c).
+        let rot = action(&|x, o| {
+            o[0] = -(x[1] - c[1]);
+            o[1] = x[0] - c[0];
+            true
+        })
+        .unwrap();
+        assert_eq!(rot.kind, OneParamKind::Rotation);
+        let (t, p) = (0.7f64, [2.0, 0.5]);
+        let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+        let want = [
+            c[0] + t.cos() * dx - t.sin() * dy,
+            c[1] + t.sin() * dx + t.cos() * dy,
+        ];
+        let got = apply(&rot, t, p);
+        assert!((got[0] - want[0]).abs() < 1e-14 && (got[1] - want[1]).abs() < 1e-14);
+        // Scaling about c: h(x) = x − c, so Φ(ln λ, x) = c + λ (x − c).
+        let sc = action(&|x, o| {
+            o[0] = x[0] - c[0];
+            o[1] = x[1] - c[1];
+            true
+        })
+        .unwrap();
+        assert_eq!(sc.kind, OneParamKind::Scaling);
+        let got = apply(&sc, 0.6f64.ln(), p);
+        assert!((got[0] - (c[0] + 0.6 * dx)).abs() < 1e-14);
+        assert!((got[1] - (c[1] + 0.6 * dy)).abs() < 1e-14);
+        // A translation and a shear (both H² = 0): exp(tH) = I + tH exactly.
+        let tr = action(&|_, o| {
+            o[0] = 1.0;
+            o[1] = -2.0;
+            true
+        })
+        .unwrap();
+        assert_eq!(tr.kind, OneParamKind::Translation);
+        assert_eq!(apply(&tr, 0.5, p), [2.5, -0.5]);
+        let shear = action(&|x, o| {
+            o[0] = x[1];
+            o[1] = 0.0;
+            true
+        })
+        .unwrap();
+        assert_eq!(shear.kind, OneParamKind::Translation);
+        assert_eq!(apply(&shear, 2.0, p), [3.0, 0.5]);
+    }
+
+    #[test]
+    fn generators_without_a_closed_form_are_refused() {
+        let e = action(&|x, o| {
+            o[0] = x[0] * x[0];
+            o[1] = 0.0;
+            true
+        })
+        .unwrap_err();
+        assert!(e.contains("not an affine action"), "{e}");
+        let e = action(&|x, o| {
+            o[0] = x[0];
+            o[1] = 2.0 * x[1];
+            true
+        })
+        .unwrap_err();
+        assert!(e.contains("none of"), "{e}");
+        let e = action(&|_, o| {
+            o.fill(0.0);
+            true
+        })
+        .unwrap_err();
+        assert!(e.contains("zero"), "{e}");
+        let e = action(&|_, _| false).unwrap_err();
+        assert!(e.contains("undefined"), "{e}");
     }
 }

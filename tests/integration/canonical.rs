@@ -223,6 +223,15 @@ fn task_feature_policy_trains_saves_loads_and_checks_its_robot() {
         e.contains("task_features") && e.contains("permutation"),
         "{e}"
     );
+    // A generator stored under the wrong closed form is caught, not silently misapplied.
+    json["task_features"]["map"]["reflection"]["perm"] = serde_json::json!([2, 3, 0, 1]);
+    json["task_features"]["map"]["scaling"]["kind"] = serde_json::json!("rotation");
+    std::fs::write(&side, serde_json::to_string(&json).unwrap()).unwrap();
+    let e = Policy::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("stored as Rotation") && e.contains("Scaling"),
+        "{e}"
+    );
 }
 
 #[test]
