@@ -16,6 +16,12 @@
 //!
 //! `H` may grow linearly from [`TrainConfig::horizon_start`] (a curriculum).
 //!
+//! With [`TrainConfig::task_features`] the network also reads the canonical task point
+//! (see [`super::canonical`]) of every rollout state, `E_s f(μ + σ_q ⊙ ẑ_k) + e_s`, with the
+//! trajectory's affine map `(E_s, e_s)` (inverse group action and normalisation, exact in
+//! `f64`, then `f32`) and `f` the batched candle FK ([`super::task_fk::CandleFk`]), so the
+//! loss is differentiated through the FK as well.
+//!
 //! Scale: the position residuals are `O(H s Δt g)` times the velocity residuals (with
 //! `g ≈ 0.1 /s` on the letter task, ~1e-2 for `H s = 100` samples), so any `w_v` of order 1
 //! makes the velocity term dominate and training becomes plain behaviour cloning, whose
@@ -517,7 +523,7 @@ fn make_batch(
     let mut canon_b = Vec::with_capacity(b * m);
     let mut step = Vec::with_capacity(b * n);
     let mut target = Vec::with_capacity(b * h * n);
-    let mut vel_in = Vec::with_capacity(b * h * (n + c));
+    let mut vel_in = Vec::with_capacity(b * h * (n + m + c));
     let mut vel_target = Vec::with_capacity(b * h * n);
     for _ in 0..b {
         let (i, t) = sampler.sample();
