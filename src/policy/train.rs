@@ -451,7 +451,6 @@ struct FeatureGraph {
     fk: CandleFk,
     q_mean: Tensor,
     q_std: Tensor,
-    m: usize,
 }
 
 /// Uniform sampler over all `(trajectory, start)` windows.
@@ -591,7 +590,6 @@ fn rollout_input(
             let q = z.broadcast_mul(&g.q_std)?.broadcast_add(&g.q_mean)?;
             let x = g.fk.forward(&q)?.unsqueeze(2)?;
             let feat = (e_mat.matmul(&x)?.squeeze(2)? + e_off)?;
-            debug_assert_eq!(feat.dims()[1], g.m);
             Tensor::cat(&[z, &feat, &batch.cond], 1)
         }
         _ => Tensor::cat(&[z, &batch.cond], 1),
@@ -789,7 +787,6 @@ pub fn train_with_features(
                 ),
                 q_mean: row(&normalizer.q_mean)?,
                 q_std: row(&normalizer.q_std)?,
-                m,
             })
         }
         None => None,
