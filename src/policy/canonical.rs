@@ -600,13 +600,30 @@ impl TaskFeatures {
     /// The network's features `(x̃ − mean) ⊘ std` into `out` (length `m`). Allocation-free.
     #[inline]
     pub fn encode(&self, q: &[f64], s: &Condition, out: &mut [f64], ws: &mut TaskFeatureWorkspace) {
-        // Borrow the scratch vector out of the workspace (an empty Vec does not allocate).
-        let mut xt = std::mem::take(&mut ws.xt);
-        self.canonical(q, s, &mut xt, ws);
+        self.forward(q, ws);
+        // Borrow the point out of the workspace (an empty Vec does not allocate).
+        let x = std::mem::take(&mut ws.x);
+        self.encode_at(&x, s, out, ws);
+        ws.x = x;
+    }
+
+    /// [`TaskFeatures::encode`] from a task point `x = f(q)` (m, the stacked chain points in
+    /// their base frames, as `KinematicsWorkspace::x`) the caller has already computed:
+    /// the node's tick reuses the FK of its safety filter. Allocation-free.
+    #[inline]
+    pub fn encode_at(
+        &self,
+        x: &[f64],
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut TaskFeatureWorkspace,
+    ) {
+        debug_assert_eq!(x.len(), self.dim(), "task point length");
+        let TaskFeatureWorkspace { xt, h, h2, .. } = ws;
+        self.spec.map.apply_inverse(s, x, xt, h, h2);
         for (j, o) in out.iter_mut().enumerate() {
             *o = (xt[j] - self.spec.mean[j]) / self.spec.std[j];
         }
-        ws.xt = xt;
     }
 
     /// The affine map `x ↦ (g(s)⁻¹ x − mean) ⊘ std` as `(E, e)`, `E` row-major `m × m`:

@@ -601,6 +601,37 @@ impl Policy {
     /// # Panics
     /// When `q` or `out` is not of length `n`, or `ws` was built for a smaller policy.
     pub fn velocity(&self, q: &[f64], s: &Condition, out: &mut [f64], ws: &mut PolicyWorkspace) {
+        self.velocity_impl(q, None, s, out, ws);
+    }
+
+    /// [`Policy::velocity`] with the task point `x = f(q)` (m, stacked chain points in their
+    /// base frames, as `KinematicsWorkspace::x` after `Kinematics::jacobian(q)`) supplied by
+    /// the caller instead of recomputed from the policy's stored chains: the node's tick
+    /// already has it. Same result bit for bit when `x` is that FK (the stored chains are
+    /// checked against the robot with [`TaskFeatures::check_kinematics`]); `x` is unused by
+    /// a policy without task features. Allocates nothing.
+    ///
+    /// # Panics
+    /// As [`Policy::velocity`]; in debug builds also when `x` has the wrong length.
+    pub fn velocity_at(
+        &self,
+        q: &[f64],
+        x: &[f64],
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut PolicyWorkspace,
+    ) {
+        self.velocity_impl(q, Some(x), s, out, ws);
+    }
+
+    fn velocity_impl(
+        &self,
+        q: &[f64],
+        x: Option<&[f64]>,
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut PolicyWorkspace,
+    ) {
         let n = self.dim();
         assert_eq!(q.len(), n, "policy q length");
         assert_eq!(out.len(), n, "policy output length");
@@ -616,7 +647,10 @@ impl Policy {
         let mut c = n;
         if let (Some(t), Some(tw)) = (&self.task, task.as_mut()) {
             c += t.dim();
-            t.encode(q, s, &mut input[n..c], tw);
+            match x {
+                Some(x) => t.encode_at(x, s, &mut input[n..c], tw),
+                None => t.encode(q, s, &mut input[n..c], tw),
+            }
         }
         encode_condition(s, &mut input[c..c + CONDITION_FEATURES]);
         self.mlp.forward(input, y, mlp);

@@ -894,9 +894,17 @@ impl NodeCore {
         }
         let inputs = &self.gate.inputs;
         let q = inputs.q.as_slice();
-        self.policy
-            .velocity(q, &inputs.condition, &mut self.v_policy, &mut self.pws);
+        // FK and Jacobian once: the safety filter reads the Jacobian, the policy's task
+        // features the point `f(q)` (the same FK as the policy's stored chains, checked at
+        // setup).
         self.kin.jacobian(q, &mut self.kws);
+        self.policy.velocity_at(
+            q,
+            self.kws.x.as_slice(),
+            &inputs.condition,
+            &mut self.v_policy,
+            &mut self.pws,
+        );
         let jac_ok = self.kws.jac.iter().all(|x| x.is_finite());
         let barrier = match self.min_ee_distance {
             Some(d_min) if jac_ok => {

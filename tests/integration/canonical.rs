@@ -321,3 +321,39 @@ fn features_of_a_sub_group_policy_undo_only_that_sub_group() {
         }
     }
 }
+
+#[test]
+fn velocity_from_the_callers_fk_equals_the_policys_own_fk_bit_for_bit() {
+    // The node's tick feeds `Policy::velocity_at` with the FK of its safety filter instead
+    // of letting the policy recompute it: same bits, so replays of recorded bags still match.
+    let robot = common::planar();
+    let kin = &robot.kinematics;
+    let policy = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    assert!(
+        policy.task_features().is_some(),
+        "the shipped policy reads x̃"
+    );
+    let n = policy.dim();
+    let (mut ws, mut kws) = (policy.workspace(), kin.workspace());
+    let (mut own, mut given) = (vec![0.0; n], vec![0.0; n]);
+    let mut rng = common::rng(11);
+    let mut moved = 0.0f64;
+    for _ in 0..50 {
+        let q = common::random_q(&mut rng, kin.limits());
+        kin.jacobian(&q, &mut kws);
+        for s in conditions() {
+            policy.velocity(&q, &s, &mut own, &mut ws);
+            policy.velocity_at(&q, kws.x.as_slice(), &s, &mut given, &mut ws);
+            assert_eq!(own, given, "q = {q:?}, {s:?}");
+            assert!(own.iter().all(|v| v.is_finite()));
+            moved = moved.max(own.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+        }
+        // A different point gives a different velocity: `x` is really read.
+        let mut shifted = kws.x.as_slice().to_vec();
+        shifted[0] += 0.5;
+        policy.velocity_at(&q, &shifted, &Condition::IDENTITY, &mut given, &mut ws);
+        policy.velocity(&q, &Condition::IDENTITY, &mut own, &mut ws);
+        assert_ne!(own, given);
+    }
+    assert!(moved > 1e-3, "the policy is not moving: {moved}");
+}
