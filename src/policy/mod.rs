@@ -11,6 +11,8 @@
 //! - [`canonical`]: optional canonical task-space inputs `x̃ = g(s)⁻¹ f(q)`
 //!   ([`TaskFeatures`]), with the robot's FK stored in the policy.
 //! - [`task_fk`]: batched differentiable FK in candle ([`CandleFk`]), for those features.
+//! - [`domain`]: the box of conditions a policy was trained on ([`ConditionDomain`]), which
+//!   the node enforces on incoming conditions.
 //! - [`mlp`]: architecture ([`MlpSpec`]), allocation-free `f64` inference
 //!   ([`MlpInference`]) and the control-loop [`Policy`].
 //! - [`train`](mod@train): training with candle ([`train()`], [`TrainConfig`], [`TrainReport`]).
@@ -20,6 +22,7 @@
 //! nothing, with a caller-owned [`PolicyWorkspace`].
 
 pub mod canonical;
+pub mod domain;
 pub mod error;
 pub mod features;
 pub mod io;
@@ -28,6 +31,7 @@ pub mod task_fk;
 pub mod train;
 
 pub use canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatureWorkspace, TaskFeatures};
+pub use domain::{ConditionDomain, DomainViolation};
 pub use error::PolicyError;
 pub use features::{encode_condition, Normalizer, CONDITION_FEATURES, STD_FLOOR};
 pub use io::{sidecar_path, FORMAT, FORMAT_VERSION};

@@ -4,7 +4,9 @@
 //! joints (other joints — torso, head, wheels — are ignored) and rejected when a
 //! controlled joint is missing or duplicated, names and positions differ in length, a
 //! position is not finite, or the header stamp is stale; `~/symmetry_condition` is
-//! rejected unless `θ` is finite, `λ > 0` is finite and `σ = ±1`. A rejected message
+//! rejected unless `θ` is finite, `λ > 0` is finite and `σ = ±1`, and — unless
+//! `accept_untrained_conditions` — unless it lies in the box of conditions the policy was
+//! trained on ([`ConditionDomain`], from its sidecar). A rejected message
 //! leaves the node's state untouched and is recorded (fixed-size [`Rejection`] + counts).
 //!
 //! Each tick at period `Δt`: with no joint state, or one older than the stale timeout,
@@ -20,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::msg;
 use crate::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
-use crate::policy::{Policy, PolicyWorkspace};
+use crate::policy::{ConditionDomain, DomainViolation, Policy, PolicyWorkspace};
 use crate::safety::{Barrier, SafetyError, SafetyFilter, SafetySettings, SafetyStatus};
 use crate::symmetry::compose::Condition;
 
@@ -101,6 +103,10 @@ pub struct NodeConfig {
     pub policy: Option<PathBuf>,
     /// Safety filter settings (`dt` is replaced by `period_s`).
     pub safety: SafetySettings,
+    /// Accept symmetry conditions outside the box the policy was trained on (its
+    /// [`ConditionDomain`], read from the policy's sidecar): the policy then extrapolates.
+    /// Default false: such conditions are rejected and the previous one is kept.
+    pub accept_untrained_conditions: bool,
 }
 
 impl Default for NodeConfig {
@@ -118,6 +124,7 @@ impl Default for NodeConfig {
             status_period_s: 0.1,
             policy: None,
             safety: SafetySettings::default(),
+            accept_untrained_conditions: false,
         }
     }
 }
@@ -260,6 +267,11 @@ pub enum Rejection {
         /// The value received.
         value: i8,
     },
+    /// The condition is valid but outside the policy's trained [`ConditionDomain`].
+    UntrainedCondition {
+        /// The part that lies outside.
+        part: DomainViolation,
+    },
 }
 
 impl Rejection {
@@ -274,6 +286,17 @@ impl Rejection {
             Rejection::InvalidTheta => "symmetry_condition: theta is not finite",
             Rejection::InvalidScale => "symmetry_condition: scale must be finite and > 0",
             Rejection::InvalidReflection { .. } => "symmetry_condition: reflection must be 1 or -1",
+            Rejection::UntrainedCondition { part } => match part {
+                DomainViolation::Theta => {
+                    "symmetry_condition: theta outside the policy's trained range"
+                }
+                DomainViolation::Scale => {
+                    "symmetry_condition: scale outside the policy's trained range"
+                }
+                DomainViolation::Reflection => {
+                    "symmetry_condition: reflection -1, but the policy was trained without it"
+                }
+            },
         }
     }
 
@@ -559,6 +582,7 @@ pub struct InputGate {
     map: Vec<usize>,
     stale_timeout_s: f64,
     check_stamps: bool,
+    domain: Option<ConditionDomain>,
     inputs: Inputs,
 }
 
@@ -571,7 +595,30 @@ impl InputGate {
             map: vec![usize::MAX; n],
             stale_timeout_s: cfg.stale_timeout_s,
             check_stamps: cfg.check_stamps,
+            domain: None,
             inputs: Inputs::new(n, cfg.default_condition),
+        }
+    }
+
+    /// The gate also rejects valid conditions outside `domain` (`None`: accepts them all).
+    pub fn with_domain(mut self, domain: Option<ConditionDomain>) -> Self {
+        self.domain = domain;
+        self
+    }
+
+    /// The condition domain this gate enforces, if any.
+    pub fn domain(&self) -> Option<&ConditionDomain> {
+        self.domain.as_ref()
+    }
+
+    /// [`Rejection::explain`] with this gate's joint names, plus the trained domain for an
+    /// untrained condition (allocates; off the tick).
+    pub fn explain(&self, r: &Rejection) -> String {
+        match (r, &self.domain) {
+            (Rejection::UntrainedCondition { .. }, Some(d)) => {
+                format!("{} (trained on {})", r.explain(&self.names), d.describe())
+            }
+            _ => r.explain(&self.names),
         }
     }
 
@@ -641,7 +688,15 @@ impl InputGate {
                 value: m.reflection,
             })
         } else {
-            None
+            let s = Condition {
+                theta: m.theta,
+                scale: m.scale,
+                reflection: m.reflection,
+            };
+            self.domain
+                .as_ref()
+                .and_then(|d| d.check(&s).err())
+                .map(|part| Rejection::UntrainedCondition { part })
         };
         let i = &mut self.inputs;
         if let Some(r) = r {
@@ -763,7 +818,27 @@ impl NodeCore {
         )?;
         let kws = kin.workspace();
         let pws = policy.workspace();
-        let gate = InputGate::new(kin.joint_names(), &cfg);
+        let domain = if cfg.accept_untrained_conditions {
+            None
+        } else {
+            ConditionDomain::from_meta(&policy.meta).map_err(|m| NodeError::Policy {
+                message: format!("the sidecar's training record: {m}"),
+            })?
+        };
+        if let Some(d) = &domain {
+            if let Err(part) = d.check(&cfg.default_condition) {
+                return Err(NodeError::Config {
+                    field: "default_condition",
+                    message: format!(
+                        "{:?} lies outside the policy's trained conditions ({}: {part:?}); \
+                         set accept_untrained_conditions = true to allow it",
+                        cfg.default_condition,
+                        d.describe()
+                    ),
+                });
+            }
+        }
+        let gate = InputGate::new(kin.joint_names(), &cfg).with_domain(domain);
         Ok(Self {
             kws,
             pws,
@@ -833,7 +908,7 @@ impl NodeCore {
 
     /// A separate input gate for this node (for an I/O thread feeding [`NodeCore::load_inputs`]).
     pub fn input_gate(&self) -> InputGate {
-        InputGate::new(self.kin.joint_names(), &self.cfg)
+        InputGate::new(self.kin.joint_names(), &self.cfg).with_domain(self.gate.domain)
     }
 
     /// Replaces the node's inputs by `src` (from another gate); allocation-free.

@@ -231,13 +231,17 @@ pub fn run(
         LogLevel::Info,
         &cfg.name,
         &format!(
-            "crossym node up: {} joints, period {} s, output {:?} on {}, trigger {:?}, domain {}",
+            "crossym node up: {} joints, period {} s, output {:?} on {}, trigger {:?}, domain {}, conditions: {}",
             names.len(),
             cfg.period_s,
             cfg.output,
             dds::expand_topic(&cfg.topics.command, &cfg.namespace, &cfg.name),
             trigger,
-            settings.domain_id
+            settings.domain_id,
+            gate.domain().map_or_else(
+                || "any valid (accept_untrained_conditions, or no training record)".to_string(),
+                |d| format!("trained on {}", d.describe())
+            )
         ),
         file!(),
         "run",
@@ -315,7 +319,7 @@ pub fn run(
                             Ok(()) => log_limited(1, LogLevel::Info, &format!(
                                 "symmetry condition: theta {} rad, scale {}, reflection {}",
                                 m.theta, m.scale, m.reflection)),
-                            Err(r) => log_limited(1, LogLevel::Warn, &format!("rejected symmetry_condition: {}", r.explain(&names))),
+                            Err(r) => log_limited(1, LogLevel::Warn, &format!("rejected symmetry_condition: {}", gate.explain(&r))),
                         }
                         input.input_buffer_mut().copy_from(gate.inputs());
                         input.publish();

@@ -500,6 +500,152 @@ fn bad_conditions_are_rejected_and_the_previous_one_kept() {
 }
 
 #[test]
+fn conditions_outside_the_policys_training_are_rejected_unless_allowed() {
+    use crossym::policy::DomainViolation;
+    // The synthetic policy above records no training: every valid condition passes (λ = 1.2).
+    // A policy trained by `crossym train` records its group and grid; the shipped planar
+    // π_MRT saw any θ, λ ∈ [0.5, 1] and both σ.
+    let shipped = || Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let cond = |theta: f64, scale: f64, reflection: i8| msg::SymmetryCondition {
+        theta,
+        scale,
+        reflection,
+        ..Default::default()
+    };
+    let mut core = NodeCore::new(
+        common::planar().kinematics,
+        shipped(),
+        SafetySettings::default(),
+        NodeConfig::default(),
+    )
+    .unwrap();
+    let mut cmd = core.command();
+    core.on_joint_state(&joint_state(&core, &Q0, 0.0), 0.0)
+        .unwrap();
+    core.on_condition(&cond(2.5, 0.5, -1)).unwrap();
+    core.on_condition(&cond(-7.0, 0.75, 1)).unwrap();
+    let kept = core.condition();
+    for (k, scale) in [0.45, 1.2, 10.0].into_iter().enumerate() {
+        let e = core.on_condition(&cond(0.3, scale, 1));
+        let r = Rejection::UntrainedCondition {
+            part: DomainViolation::Scale,
+        };
+        assert_eq!(e, Err(r), "λ = {scale}");
+        assert_eq!(core.condition(), kept, "the previous condition is kept");
+        assert_eq!(core.tick(0.0, &mut cmd).code, StatusCode::InvalidInput);
+        assert_safe(&core, &cmd);
+        assert_eq!(core.status().rejected_conditions, k as u32 + 1);
+        let gate = core.input_gate();
+        let text = gate.explain(&r);
+        assert!(
+            text.contains("scale outside") && text.contains("λ ∈ [0.5, 1]"),
+            "{text}"
+        );
+    }
+    let status = core
+        .status()
+        .to_msg(msg::Time::default(), core.joint_names());
+    assert!(
+        status.last_error.contains("trained range"),
+        "{}",
+        status.last_error
+    );
+
+    // A rotation-only policy (π_R: the shipped file's record with the group changed).
+    let mut p = shipped();
+    p.meta.symmetry["group"] = "G_R".into();
+    let mut core_r = NodeCore::new(
+        common::planar().kinematics,
+        p,
+        SafetySettings::default(),
+        NodeConfig::default(),
+    )
+    .unwrap();
+    core_r.on_condition(&cond(3.0, 1.0, 1)).unwrap();
+    assert_eq!(
+        core_r.on_condition(&cond(3.0, 0.8, 1)),
+        Err(Rejection::UntrainedCondition {
+            part: DomainViolation::Scale
+        })
+    );
+    assert_eq!(
+        core_r.on_condition(&cond(3.0, 1.0, -1)),
+        Err(Rejection::UntrainedCondition {
+            part: DomainViolation::Reflection
+        })
+    );
+
+    // Opting in: the same conditions are accepted (the policy extrapolates, the filter
+    // still keeps every command inside the limits).
+    let allow = NodeConfig {
+        accept_untrained_conditions: true,
+        ..NodeConfig::default()
+    };
+    let mut open = NodeCore::new(
+        common::planar().kinematics,
+        shipped(),
+        SafetySettings::default(),
+        allow.clone(),
+    )
+    .unwrap();
+    assert!(open.input_gate().domain().is_none());
+    open.on_joint_state(&joint_state(&open, &Q0, 0.0), 0.0)
+        .unwrap();
+    open.on_condition(&cond(0.3, 1.2, 1)).unwrap();
+    assert_eq!(open.tick(0.0, &mut cmd).code, StatusCode::NoWarning);
+    assert_safe(&open, &cmd);
+
+    // A default condition outside the domain is a setup error naming the setting.
+    let outside = NodeConfig {
+        default_condition: Condition {
+            theta: 0.0,
+            scale: 2.0,
+            reflection: 1,
+        },
+        ..NodeConfig::default()
+    };
+    let e = NodeCore::new(
+        common::planar().kinematics,
+        shipped(),
+        SafetySettings::default(),
+        outside.clone(),
+    )
+    .err()
+    .expect("λ = 2 is outside [0.5, 1]")
+    .to_string();
+    assert!(
+        e.contains("default_condition") && e.contains("accept_untrained_conditions"),
+        "{e}"
+    );
+    // ...unless untrained conditions are allowed.
+    let both = NodeConfig {
+        accept_untrained_conditions: true,
+        ..outside
+    };
+    NodeCore::new(
+        common::planar().kinematics,
+        shipped(),
+        SafetySettings::default(),
+        both,
+    )
+    .unwrap();
+
+    // A malformed training record is a clear setup error, not silently ignored.
+    let mut p = shipped();
+    p.meta.symmetry["grid"]["scales"] = serde_json::json!([-1.0]);
+    let e = NodeCore::new(
+        common::planar().kinematics,
+        p,
+        SafetySettings::default(),
+        NodeConfig::default(),
+    )
+    .err()
+    .expect("negative scale in the record")
+    .to_string();
+    assert!(e.contains("training record") && e.contains("scales"), "{e}");
+}
+
+#[test]
 fn position_mode_never_leaves_the_limits() {
     // A policy that drives every joint towards its upper limit at 5 rad/s (> 3 rad/s limit).
     let bias = [5.0, -5.0, 5.0, 5.0, -5.0, 5.0, 5.0, -5.0];

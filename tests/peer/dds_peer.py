@@ -224,6 +224,9 @@ BAD_CONDITIONS = [
     ("scale_0", (0.0, 0.0, 1)),
     ("scale_negative", (0.0, -1.0, 1)),
     ("theta_nan", (float("nan"), 1.0, 1)),
+    # Valid, but outside the conditions the shipped policy was trained on (λ ∈ [0.5, 1]).
+    ("scale_untrained_large", (0.0, 1.2, 1)),
+    ("scale_untrained_small", (0.0, 0.3, -1)),
 ]
 
 # --------------------------------------------------------------------------------------
@@ -593,7 +596,8 @@ def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
     rep.check("symmetry_condition: node's reader matched (Reliable, volatile)", matched)
     time.sleep(0.2)
     good_idx = [0]
-    goods = [(0.0, 1.0, 1), (0.1, 1.1, 1), (-0.2, 0.9, -1), (0.3, 1.2, 1), (-0.4, 0.7, -1), (0.6, 1.3, 1)]
+    # Inside the shipped policy's trained box (any θ, λ ∈ [0.5, 1], σ = ±1).
+    goods = [(0.0, 1.0, 1), (0.1, 0.95, 1), (-0.2, 0.9, -1), (0.3, 0.6, 1), (-0.4, 0.7, -1), (0.6, 0.55, 1)]
     current = goods[0]
     st = apply_condition(peer, rep, f"initial good condition {current} accepted", current, timeout)
     if st is None:
@@ -632,6 +636,9 @@ def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
                   f"rejected_conditions {base.rejected_conditions} -> {st.rejected_conditions}, "
                   f"last_error {st.last_error!r}" if st else
                   f"rejected_conditions stayed {peer.latest_status().rejected_conditions}")
+        if st is not None and name.startswith("scale_untrained"):
+            rep.check(f"symmetry_condition {name}: last_error names the trained range",
+                      "scale outside the policy's trained range" in st.last_error, repr(st.last_error))
         if st is not None:
             st17 = peer.wait_status(lambda s: int(s.code) == INVALID_INPUT, 1.0, t0)
             rep.check(f"symmetry_condition {name}: code INVALID_INPUT while it is the latest",
