@@ -10,7 +10,7 @@ use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::plot::{write_paths_png, PathPanel, XY_VIEW};
 use crossym::eval::{score, EvalConfig};
-use crossym::policy::Policy;
+use crossym::policy::{ConditionDomain, Policy};
 use crossym::ros::dds::{DdsSettings, DiscoveryRange};
 use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
 use crossym::sim::MockHwSummary;
@@ -165,19 +165,58 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     let demos = super::letter_demos(&cfg, kin)?;
     let demo = super::pick_demo(&demos, a.demo)?;
     let which = demo.demo;
-    let conditions = if a.conditions.is_empty() {
-        default_conditions()
-    } else {
-        a.conditions
-            .iter()
-            .map(|s| super::parse_condition(s))
-            .collect::<anyhow::Result<_>>()?
-    };
     let policy_path = node_cfg
         .policy
         .clone()
         .context("[node] policy is not set")?;
     let policy = Policy::load(&policy_path)?;
+    // The node rejects conditions outside the policy's trained box: refuse them here with
+    // the reason (given ones) or leave them out (defaults), instead of a node that ignores them.
+    let domain = if node_cfg.accept_untrained_conditions {
+        None
+    } else {
+        ConditionDomain::from_meta(&policy.meta)
+            .map_err(anyhow::Error::msg)
+            .with_context(|| format!("policy {}", policy_path.display()))?
+    };
+    let conditions: Vec<(String, Condition)> = if a.conditions.is_empty() {
+        let mut kept = default_conditions();
+        if let Some(d) = &domain {
+            kept.retain(|(label, c)| {
+                let ok = d.check(c).is_ok();
+                if !ok {
+                    println!(
+                        "  leaving out default condition `{label}`: the policy was trained on {}",
+                        d.describe()
+                    );
+                }
+                ok
+            });
+        }
+        anyhow::ensure!(
+            !kept.is_empty(),
+            "no default condition lies in the policy's trained box; give --condition"
+        );
+        kept
+    } else {
+        let given = a
+            .conditions
+            .iter()
+            .map(|s| super::parse_condition(s))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        if let Some(d) = &domain {
+            for (s, c) in &given {
+                if let Err(part) = d.check(c) {
+                    anyhow::bail!(
+                        "--condition `{s}`: {part} lies outside the conditions the policy was trained \
+                         on ({}); set [node] accept_untrained_conditions = true to let it extrapolate",
+                        d.describe()
+                    );
+                }
+            }
+        }
+        given
+    };
     println!(
         "crossym demo: {} on {} ({} joints), demo {which}, policy {}",
         a.config.display(),

@@ -47,6 +47,16 @@ pub enum DomainViolation {
     Reflection,
 }
 
+impl std::fmt::Display for DomainViolation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Theta => "θ",
+            Self::Scale => "λ",
+            Self::Reflection => "the reflection σ = −1",
+        })
+    }
+}
+
 /// `θ` wrapped to `(−π, π]` (rad).
 fn wrap(theta: f64) -> f64 {
     let t = theta.rem_euclid(2.0 * PI);
@@ -179,6 +189,7 @@ mod tests {
         }
         assert_eq!(mrt.check(&c(0.0, 0.45, 1)), Err(DomainViolation::Scale));
         assert_eq!(mrt.check(&c(0.0, 1.2, -1)), Err(DomainViolation::Scale));
+        assert_eq!(DomainViolation::Scale.to_string(), "λ");
 
         let r = ConditionDomain::from_meta(&meta("G_R", grid.clone()))
             .unwrap()

@@ -830,7 +830,7 @@ impl NodeCore {
                 return Err(NodeError::Config {
                     field: "default_condition",
                     message: format!(
-                        "{:?} lies outside the policy's trained conditions ({}: {part:?}); \
+                        "{:?}: {part} lies outside the policy's trained conditions ({}); \
                          set accept_untrained_conditions = true to allow it",
                         cfg.default_condition,
                         d.describe()

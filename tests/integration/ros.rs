@@ -743,3 +743,32 @@ fn node_rejects_a_policy_of_the_wrong_size() {
     );
     assert!(e.is_err());
 }
+
+#[test]
+fn demo_refuses_a_condition_the_policy_was_not_trained_on() {
+    // Before any process starts: a clear usage error (exit 2), nothing written.
+    let out_dir = common::temp_dir("demo-untrained").join("out");
+    let config = common::path("config/letters.toml");
+    let out = common::crossym([
+        "demo".as_ref(),
+        "--config".as_ref(),
+        config.as_os_str(),
+        "--condition".as_ref(),
+        "0:1:1".as_ref(),
+        "--condition".as_ref(),
+        "0:1.3:1".as_ref(),
+        "--out".as_ref(),
+        out_dir.as_os_str(),
+    ])
+    .output()
+    .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("`0:1.3:1`: λ lies outside")
+            && stderr.contains("λ ∈ [0.5, 1]")
+            && stderr.contains("accept_untrained_conditions"),
+        "{stderr}"
+    );
+    assert!(!out_dir.exists(), "nothing written");
+}
