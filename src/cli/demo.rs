@@ -10,7 +10,7 @@ use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::plot::{write_paths_png, PathPanel, XY_VIEW};
 use crossym::eval::{score, EvalConfig};
-use crossym::policy::{ConditionDomain, Policy};
+use crossym::policy::Policy;
 use crossym::ros::dds::{DdsSettings, DiscoveryRange};
 use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
 use crossym::sim::MockHwSummary;
@@ -172,13 +172,10 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     let policy = Policy::load(&policy_path)?;
     // The node rejects conditions outside the policy's trained box: refuse them here with
     // the reason (given ones) or leave them out (defaults), instead of a node that ignores them.
-    let domain = if node_cfg.accept_untrained_conditions {
-        None
-    } else {
-        ConditionDomain::from_meta(&policy.meta)
-            .map_err(anyhow::Error::msg)
-            .with_context(|| format!("policy {}", policy_path.display()))?
-    };
+    let domain = node_cfg
+        .condition_domain(&policy)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("policy {}", policy_path.display()))?;
     let conditions: Vec<(String, Condition)> = if a.conditions.is_empty() {
         let mut kept = default_conditions();
         if let Some(d) = &domain {

@@ -17,6 +17,7 @@ use std::f64::consts::PI;
 
 use crate::data::augmentation::{GroupGrid, SubGroup};
 use crate::symmetry::compose::Condition;
+use crate::symmetry::transfer::lift::wrap_angle as wrap;
 
 use super::PolicyMeta;
 
@@ -54,16 +55,6 @@ impl std::fmt::Display for DomainViolation {
             Self::Scale => "λ",
             Self::Reflection => "the reflection σ = −1",
         })
-    }
-}
-
-/// `θ` wrapped to `(−π, π]` (rad).
-fn wrap(theta: f64) -> f64 {
-    let t = theta.rem_euclid(2.0 * PI);
-    if t > PI {
-        t - 2.0 * PI
-    } else {
-        t
     }
 }
 

@@ -130,6 +130,16 @@ impl Default for NodeConfig {
 }
 
 impl NodeConfig {
+    /// The conditions the node accepts for `policy`: its trained [`ConditionDomain`], or
+    /// `None` (every valid condition) with `accept_untrained_conditions` or when the policy
+    /// records no training; an error names a malformed training record.
+    pub fn condition_domain(&self, policy: &Policy) -> Result<Option<ConditionDomain>, String> {
+        if self.accept_untrained_conditions {
+            return Ok(None);
+        }
+        ConditionDomain::from_meta(&policy.meta)
+    }
+
     /// Checks periods, timeout, names and the default condition; says what is wrong.
     pub fn validate(&self) -> Result<(), NodeError> {
         let bad = |field: &'static str, message: String| NodeError::Config { field, message };
@@ -679,6 +689,11 @@ impl InputGate {
 
     /// Accepts a SymmetryCondition or says why not (the previous one stays); allocation-free.
     pub fn on_condition(&mut self, m: &msg::SymmetryCondition) -> Result<(), Rejection> {
+        let s = Condition {
+            theta: m.theta,
+            scale: m.scale,
+            reflection: m.reflection,
+        };
         let r = if !m.theta.is_finite() {
             Some(Rejection::InvalidTheta)
         } else if !(m.scale.is_finite() && m.scale > 0.0) {
@@ -688,11 +703,6 @@ impl InputGate {
                 value: m.reflection,
             })
         } else {
-            let s = Condition {
-                theta: m.theta,
-                scale: m.scale,
-                reflection: m.reflection,
-            };
             self.domain
                 .as_ref()
                 .and_then(|d| d.check(&s).err())
@@ -705,11 +715,7 @@ impl InputGate {
             i.last_error = Some(r);
             return Err(r);
         }
-        i.condition = Condition {
-            theta: m.theta,
-            scale: m.scale,
-            reflection: m.reflection,
-        };
+        i.condition = s;
         i.condition_rejected = false;
         i.condition_seq = i.condition_seq.wrapping_add(1);
         Ok(())
@@ -818,13 +824,11 @@ impl NodeCore {
         )?;
         let kws = kin.workspace();
         let pws = policy.workspace();
-        let domain = if cfg.accept_untrained_conditions {
-            None
-        } else {
-            ConditionDomain::from_meta(&policy.meta).map_err(|m| NodeError::Policy {
+        let domain = cfg
+            .condition_domain(&policy)
+            .map_err(|m| NodeError::Policy {
                 message: format!("the sidecar's training record: {m}"),
-            })?
-        };
+            })?;
         if let Some(d) = &domain {
             if let Err(part) = d.check(&cfg.default_condition) {
                 return Err(NodeError::Config {
