@@ -13,6 +13,7 @@ mod demo;
 mod density;
 mod rollout;
 mod ros;
+mod stress;
 
 /// Cross-space symmetry compositions for robot policies.
 #[derive(Debug, Parser)]
@@ -77,6 +78,10 @@ enum Command {
     /// condition, or --q) and write the states to CSV; scored against the demonstration.
     /// Exits 1 when the rollout turned non-finite.
     Rollout(rollout::RolloutArgs),
+    /// Fault campaign: randomized closed-loop episodes of the node core and a simulated
+    /// robot (input faults, latency, adversarial policies, tight limits); a table of limit
+    /// violations. Exits 1 on any violation or non-finite command.
+    Stress(stress::StressArgs),
     /// The augmentation-density experiment: π_R trained per rotation step Δθ, RMSE against
     /// the test rotation θ (CSV, Markdown and a PNG of the curves).
     Density(density::DensityArgs),
@@ -185,6 +190,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Demo(a) => demo::demo(&a),
         Command::Density(a) => density::density(&a),
         Command::Rollout(a) => rollout::rollout_cmd(&a),
+        Command::Stress(a) => stress::stress(&a),
         Command::Node {
             config,
             overrides,

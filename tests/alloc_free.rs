@@ -459,7 +459,7 @@ fn assert_only_clarabel_timers(what: &str, first: Option<Backtrace>) {
 fn audit_tick(robot: &str, cfg: &crossym::config::Config, seed: u64) {
     let loaded = cfg.load_robot().unwrap();
     let kin = &loaded.kinematics;
-    use crossym::safety::{SafetyFilter, SafetySettings, SafetyStatus};
+    use crossym::safety::{Anchor, SafetyFilter, SafetySettings, SafetyStatus};
     use crossym::symmetry::compose::Condition;
     let n = kin.dof();
     let policy = tick_policy(cfg, kin);
@@ -501,8 +501,15 @@ fn audit_tick(robot: &str, cfg: &crossym::config::Config, seed: u64) {
         // The solver path is measured apart: Clarabel 0.11 allocates small HashMap nodes in
         // its internal timers on every solve (clarabel/src/timers/timers.rs, start_subtimer),
         // which cannot be switched off. Everything of ours must stay at zero.
-        let (rep, count, first) =
-            count_allocs(|| filter.filter(&q, &v, Some(&kws.jac), None, &mut out));
+        let (rep, count, first) = count_allocs(|| {
+            // A state measured 1.5 periods ago: the horizon and its command window run.
+            let now = k as f64 * 0.01;
+            let anchor = Anchor::Measured {
+                q: &q,
+                time_s: now - 0.015,
+            };
+            filter.filter(now, anchor, &v, Some(&kws.jac), None, &mut out)
+        });
         if rep.status == SafetyStatus::Filtered && rep.iterations > 0 {
             solver_calls += 1;
             solver_allocs += count;

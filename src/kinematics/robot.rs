@@ -192,6 +192,16 @@ impl Kinematics {
         &self.limits
     }
 
+    /// The same robot with other limits (one per controlled joint, `q` order), e.g. a
+    /// tightened envelope; `None` when the count differs.
+    pub fn with_limits(mut self, limits: Vec<JointLimits>) -> Option<Self> {
+        if limits.len() != self.n {
+            return None;
+        }
+        self.limits = limits;
+        Some(self)
+    }
+
     /// The configured pseudo-inverse (metric, damping, threshold).
     pub fn pinv(&self) -> &DampedPinv {
         &self.pinv

@@ -23,7 +23,8 @@ use serde::{Deserialize, Serialize};
 use super::msg;
 use crate::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
 use crate::policy::{ConditionDomain, DomainViolation, Policy, PolicyWorkspace};
-use crate::safety::{Barrier, SafetyError, SafetyFilter, SafetySettings, SafetyStatus};
+use crate::safety::history::{CommandHistory, CommandWindow};
+use crate::safety::{Anchor, Barrier, SafetyError, SafetyFilter, SafetySettings, SafetyStatus};
 use crate::symmetry::compose::Condition;
 
 /// What the node publishes on its command topic.
@@ -527,6 +528,11 @@ pub struct Inputs {
     pub q: Vec<f64>,
     /// Receipt time of `q` (s, the clock of `now_s`); `None` before the first.
     pub state_time_s: Option<f64>,
+    /// When `q` was measured (s): its header stamp when stamps are checked and it is not
+    /// later than the receipt time, else the receipt time.
+    pub measured_time_s: f64,
+    /// Header stamp of `q` (s) when stamps are checked and it is not zero.
+    pub last_stamp_s: Option<f64>,
     /// Latest valid condition (or the configured default).
     pub condition: Condition,
     /// Last rejected input, if any since start.
@@ -550,6 +556,8 @@ impl Inputs {
         Self {
             q: vec![0.0; n],
             state_time_s: None,
+            measured_time_s: f64::NEG_INFINITY,
+            last_stamp_s: None,
             condition,
             last_error: None,
             joint_state_rejected: false,
@@ -572,6 +580,8 @@ impl Inputs {
     pub fn copy_from(&mut self, src: &Inputs) {
         self.q.copy_from_slice(&src.q);
         self.state_time_s = src.state_time_s;
+        self.measured_time_s = src.measured_time_s;
+        self.last_stamp_s = src.last_stamp_s;
         self.condition = src.condition;
         self.last_error = src.last_error;
         self.joint_state_rejected = src.joint_state_rejected;
@@ -682,6 +692,19 @@ impl InputGate {
             i.q[j] = m.position[self.map[j]];
         }
         i.state_time_s = Some(now_s);
+        let stamp = m.header.stamp.as_secs_f64();
+        let stamped = self.check_stamps && !m.header.stamp.is_zero();
+        // A republished message (same stamp) is the same measurement: it keeps the time of
+        // its first receipt, so a driver repeating its last state cannot make it look fresh.
+        let repeat = stamped && i.last_stamp_s == Some(stamp);
+        i.measured_time_s = if repeat {
+            i.measured_time_s.min(now_s)
+        } else if stamped && stamp < now_s {
+            stamp
+        } else {
+            now_s
+        };
+        i.last_stamp_s = stamped.then_some(stamp);
         i.joint_state_rejected = false;
         i.joint_state_seq = i.joint_state_seq.wrapping_add(1);
         Ok(())
@@ -722,6 +745,10 @@ impl InputGate {
     }
 }
 
+/// Replaces the policy's output in [`NodeCore::tick`] (fault campaigns): called with the
+/// tick count, the measured `q` and the policy's velocity, which it may overwrite.
+pub type PolicyOverride = Box<dyn FnMut(u64, &[f64], &mut [f64]) + Send>;
+
 /// The node's logic: latest inputs, the control tick, the status. See the module docs.
 pub struct NodeCore {
     cfg: NodeConfig,
@@ -738,10 +765,15 @@ pub struct NodeCore {
     barrier_grad: Vec<f64>,
     v_policy: Vec<f64>,
     v_safe: Vec<f64>,
-    zeros: Vec<f64>,
-    // Last commanded position (hold target).
+    // Last commanded position (position / trajectory modes: the anchor of the next command).
     q_hold: Vec<f64>,
     has_hold: bool,
+    // Commanded positions with their times, and the hull of those the robot may follow.
+    pos_history: CommandHistory,
+    pos_window: CommandWindow,
+    unbounded: Vec<f64>,
+    zeros: Vec<f64>,
+    policy_override: Option<PolicyOverride>,
     // Status.
     code: StatusCode,
     ticks: u64,
@@ -819,9 +851,22 @@ impl NodeCore {
             &limits,
             SafetySettings {
                 dt: cfg.period_s,
+                max_state_age_s: cfg.stale_timeout_s,
                 ..safety
             },
         )?;
+        let fs = filter.settings();
+        if !(safety.tracking_tolerance.is_finite() && safety.tracking_tolerance > 0.0) {
+            return Err(NodeError::Config {
+                field: "safety.tracking_tolerance",
+                message: format!("{} must be positive", safety.tracking_tolerance),
+            });
+        }
+        let pos_capacity = ((cfg.stale_timeout_s + fs.state_delay_s + 2.0 * fs.latency())
+            / cfg.period_s)
+            .ceil()
+            .min(1e5) as usize
+            + 4;
         let kws = kin.workspace();
         let pws = policy.workspace();
         let domain = cfg
@@ -855,9 +900,13 @@ impl NodeCore {
             barrier_grad: vec![0.0; n],
             v_policy: vec![0.0; n],
             v_safe: vec![0.0; n],
-            zeros: vec![0.0; n],
             q_hold: vec![0.0; n],
             has_hold: false,
+            pos_history: CommandHistory::new(n, pos_capacity),
+            pos_window: CommandWindow::new(n),
+            unbounded: vec![f64::INFINITY; n],
+            zeros: vec![0.0; n],
+            policy_override: None,
             code: StatusCode::StaleJointStates,
             ticks: 0,
             stale_ticks: 0,
@@ -868,6 +917,17 @@ impl NodeCore {
             cfg,
             kin,
         })
+    }
+
+    /// Replaces (or, with `None`, restores) the policy's output each tick: adversarial
+    /// policies of `crossym stress`. The safety filter still bounds every command.
+    pub fn set_policy_override(&mut self, f: Option<PolicyOverride>) {
+        self.policy_override = f;
+    }
+
+    /// Breaks the safety filter on purpose (tests and `crossym stress --break`).
+    pub fn inject_filter_defect(&mut self, defect: crate::safety::FilterDefect) {
+        self.filter.inject_defect(defect);
     }
 
     /// The node's settings.
@@ -930,20 +990,57 @@ impl NodeCore {
         self.gate.on_condition(m)
     }
 
-    /// Fills `out` with the zero / hold command; false when there is nothing to hold.
-    fn hold(&mut self, out: &mut Command) -> bool {
+    fn is_position(&self) -> bool {
+        self.cfg.output != OutputMode::Velocity
+    }
+
+    /// Brakes toward zero velocity at the acceleration limits (no usable state) into `out`;
+    /// in position modes the braking velocities move the last commanded position. False when
+    /// there is nothing to command (position modes before any joint state).
+    fn brake(&mut self, now_s: f64, out: &mut Command) -> bool {
         out.mode = self.cfg.output;
-        out.velocities.fill(0.0);
-        self.filter.reset(&self.zeros);
-        let i = &self.gate.inputs;
-        if !self.has_hold && i.state_time_s.is_some() {
-            for j in 0..self.n {
-                self.q_hold[j] = clamp_to(&self.limits[j], i.q[j]);
-            }
-            self.has_hold = true;
+        if self.is_position() && !self.has_hold {
+            out.velocities.fill(0.0);
+            out.positions.copy_from_slice(&self.q_hold);
+            return false;
         }
-        out.positions.copy_from_slice(&self.q_hold);
-        self.has_hold || self.cfg.output == OutputMode::Velocity
+        self.filter.brake(now_s, &mut out.velocities);
+        let dt = self.cfg.period_s;
+        let i = &self.gate.inputs;
+        for j in 0..self.n {
+            let from = if self.is_position() || i.state_time_s.is_none() {
+                self.q_hold[j]
+            } else {
+                i.q[j]
+            };
+            out.positions[j] = clamp_to(&self.limits[j], from + out.velocities[j] * dt);
+        }
+        if self.is_position() {
+            self.q_hold.copy_from_slice(&out.positions);
+            self.pos_history.push(now_s, &out.positions);
+        }
+        true
+    }
+
+    /// True when the measured `q` lies within `tracking_tolerance` of the positions the robot
+    /// may be following since it was measured (position modes); false after a teleport or
+    /// when the robot does not follow.
+    fn tracks_commands(&mut self) -> bool {
+        let i = &self.gate.inputs;
+        let s = i.measured_time_s - self.filter.settings().state_delay_s;
+        let t = i.state_time_s.unwrap_or(s);
+        self.pos_history.window(
+            s.min(t),
+            t,
+            self.filter.settings().latency(),
+            &self.unbounded,
+            &mut self.pos_window,
+        );
+        let tol = self.cfg.safety.tracking_tolerance;
+        (0..self.n).all(|j| {
+            i.q[j] >= self.pos_window.past_min[j] - tol
+                && i.q[j] <= self.pos_window.past_max[j] + tol
+        })
     }
 
     /// One control tick at time `now_s` (s) into `out`; allocation-free. See the module docs.
@@ -952,7 +1049,9 @@ impl NodeCore {
         let fresh = match self.gate.inputs.state_time_s {
             Some(t) => {
                 self.age_s = now_s - t;
-                self.age_s <= self.cfg.stale_timeout_s
+                // The data's own age counts too (a republished old state is not fresh).
+                let data_age = now_s - self.gate.inputs.measured_time_s;
+                self.age_s <= self.cfg.stale_timeout_s && data_age <= self.cfg.stale_timeout_s
             }
             None => {
                 self.age_s = -1.0;
@@ -961,15 +1060,31 @@ impl NodeCore {
         };
         if !fresh {
             self.stale_ticks = self.stale_ticks.saturating_add(1);
-            let publish = self.hold(out);
+            let publish = self.brake(now_s, out);
             self.code = StatusCode::StaleJointStates;
             self.active = 0;
             return TickReport {
                 code: self.code,
                 publish,
-                safety: None,
+                safety: Some(SafetyStatus::Braking),
                 active_constraints: 0,
             };
+        }
+        // Position modes: the next command continues the last commanded position, unless
+        // there is none yet or the robot is not where the commands put it (a reset, a robot
+        // that does not follow): then it starts from the measured state at rest.
+        if self.is_position() && (!self.has_hold || !self.tracks_commands()) {
+            for j in 0..self.n {
+                self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
+            }
+            self.filter.reset(&self.zeros);
+            if self.has_hold {
+                // Commands still in flight may yet move the robot: keep them in the hull.
+                self.pos_history.push(now_s, &self.q_hold);
+            } else {
+                self.pos_history.reset_to(&self.q_hold);
+            }
+            self.has_hold = true;
         }
         let inputs = &self.gate.inputs;
         let q = inputs.q.as_slice();
@@ -984,6 +1099,9 @@ impl NodeCore {
             &mut self.v_policy,
             &mut self.pws,
         );
+        if let Some(f) = self.policy_override.as_mut() {
+            f(self.ticks, q, &mut self.v_policy);
+        }
         let jac_ok = self.kws.jac.iter().all(|x| x.is_finite());
         let barrier = match self.min_ee_distance {
             Some(d_min) if jac_ok => {
@@ -992,22 +1110,37 @@ impl NodeCore {
             _ => None,
         };
         let jac = if jac_ok { Some(&self.kws.jac) } else { None };
-        let report = self
-            .filter
-            .filter(q, &self.v_policy, jac, barrier, &mut self.v_safe);
+        let position = self.cfg.output != OutputMode::Velocity;
+        let anchor = if position {
+            Anchor::Commanded { q: &self.q_hold }
+        } else {
+            Anchor::Measured {
+                q,
+                time_s: inputs.measured_time_s,
+            }
+        };
+        let report = self.filter.filter(
+            now_s,
+            anchor,
+            &self.v_policy,
+            jac,
+            barrier,
+            &mut self.v_safe,
+        );
         out.mode = self.cfg.output;
         let dt = self.cfg.period_s;
         let mut finite = true;
         for j in 0..self.n {
             let v = self.v_safe[j];
-            let p = clamp_to(&self.limits[j], q[j] + v * dt);
+            let from = if position { self.q_hold[j] } else { q[j] };
+            let p = clamp_to(&self.limits[j], from + v * dt);
             finite &= v.is_finite() && p.is_finite();
             out.velocities[j] = v;
             out.positions[j] = p;
         }
         if !finite {
             // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
-            let publish = self.hold(out);
+            let publish = self.brake(now_s, out);
             self.code = StatusCode::SafetyFallback;
             self.active = 0;
             return TickReport {
@@ -1017,8 +1150,10 @@ impl NodeCore {
                 active_constraints: 0,
             };
         }
-        self.q_hold.copy_from_slice(&out.positions);
-        self.has_hold = true;
+        if position {
+            self.q_hold.copy_from_slice(&out.positions);
+            self.pos_history.push(now_s, &out.positions);
+        }
         self.active = report.active;
         self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
             StatusCode::InvalidInput
@@ -1043,7 +1178,19 @@ impl NodeCore {
     /// when there is nothing to hold (position mode before any joint state).
     pub fn shutdown_command(&mut self, out: &mut Command) -> bool {
         self.code = StatusCode::Shutdown;
-        self.hold(out)
+        out.mode = self.cfg.output;
+        out.velocities.fill(0.0);
+        let i = &self.gate.inputs;
+        if !self.is_position() {
+            if i.state_time_s.is_some() {
+                for j in 0..self.n {
+                    out.positions[j] = clamp_to(&self.limits[j], i.q[j]);
+                }
+            }
+            return true;
+        }
+        out.positions.copy_from_slice(&self.q_hold);
+        self.has_hold
     }
 
     /// Records the caller-measured duration of the last tick (µs).

@@ -24,7 +24,8 @@ use clarabel::solver::{
 };
 use nalgebra::DMatrix;
 
-use super::bounds::joint_bounds;
+use super::bounds::{joint_bounds, Horizon};
+use super::history::{CommandHistory, CommandWindow};
 use crate::kinematics::JointLimits;
 
 /// Settings of the safety filter, validated once.
@@ -52,6 +53,25 @@ pub struct SafetySettings {
     /// Iteration budget of the interior-point solver.
     #[serde(default = "d_iter")]
     pub max_iter: u32,
+    /// Worst-case time (s) from publishing a velocity command until the robot runs it and
+    /// until a newer one replaces it: transport, dropped commands (each adds a period) and
+    /// late ticks. `None`: one control period.
+    #[serde(default)]
+    pub latency_s: Option<f64>,
+    /// How old a joint state's positions may already be when it arrives (s): sensing and
+    /// transport delay before its header stamp or receipt time.
+    #[serde(default)]
+    pub state_delay_s: f64,
+    /// Longest joint-state age (s) the position bound covers with the command history; older
+    /// states use the velocity limit for the unknown commands (the node sets it to its
+    /// stale timeout).
+    #[serde(default = "d_max_age")]
+    pub max_state_age_s: f64,
+    /// Position modes: how far (rad or m) a measured position may lie from every position
+    /// the robot may be following before the node restarts its commands from the measured
+    /// state (a reset, a robot that does not follow).
+    #[serde(default = "d_track")]
+    pub tracking_tolerance: f64,
 }
 
 fn d_dt() -> f64 {
@@ -72,6 +92,19 @@ fn d_gamma() -> f64 {
 fn d_iter() -> u32 {
     50
 }
+fn d_max_age() -> f64 {
+    0.1
+}
+fn d_track() -> f64 {
+    2e-3
+}
+
+impl SafetySettings {
+    /// The actuation latency `L` (s): `latency_s`, or one period.
+    pub fn latency(&self) -> f64 {
+        self.latency_s.unwrap_or(self.dt)
+    }
+}
 
 impl Default for SafetySettings {
     fn default() -> Self {
@@ -83,6 +116,10 @@ impl Default for SafetySettings {
             min_ee_distance: None,
             barrier_gain: d_gamma(),
             max_iter: d_iter(),
+            latency_s: None,
+            state_delay_s: 0.0,
+            max_state_age_s: d_max_age(),
+            tracking_tolerance: d_track(),
         }
     }
 }
@@ -124,6 +161,45 @@ pub enum SafetyStatus {
     Fallback,
     /// The measured state was not finite: a braking command was returned.
     InvalidState,
+    /// No usable state (stale, missing): [`SafetyFilter::brake`] decelerated toward zero.
+    Braking,
+}
+
+/// A deliberate defect for fault campaigns and tests that must see a broken filter fail.
+/// Never set in the node; [`FilterDefect::None`] is the real filter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum FilterDefect {
+    /// The real filter.
+    #[default]
+    None,
+    /// The position bound ignores the state's age, the latency and the commands in flight
+    /// (the filter before issue 16: one period, as if measured now).
+    NoHorizon,
+    /// No position bound at all.
+    NoPositionBound,
+    /// No acceleration bound (the velocity box only).
+    NoAccelerationBound,
+}
+
+/// Where the position bounds of a tick start from.
+#[derive(Debug, Clone, Copy)]
+pub enum Anchor<'a> {
+    /// The robot integrates velocity commands; `q` (rad or m) was measured at `time_s` (s,
+    /// the clock of the tick). The bound covers the time since then, the latency, the
+    /// commands still in flight and one period (module docs of [`super::bounds`]).
+    Measured {
+        /// Measured positions.
+        q: &'a [f64],
+        /// When they were measured (header stamp or receipt time) (s).
+        time_s: f64,
+    },
+    /// The robot follows position commands and `q` (rad or m) is the last commanded
+    /// position: no latency term, the command `q + x·Δt` itself stays inside.
+    Commanded {
+        /// Last commanded positions.
+        q: &'a [f64],
+    },
 }
 
 /// Per-tick report of the filter (no allocation).
@@ -133,8 +209,8 @@ pub struct SafetyReport {
     pub status: SafetyStatus,
     /// Joints whose output sits on a bound.
     pub active: u32,
-    /// Joints where braking overrode the acceleration limit.
-    pub accel_overridden: u32,
+    /// Joints whose position bound lay outside the acceleration box: they brake at `a_max`.
+    pub braking_saturated: u32,
     /// True when the policy output had non-finite entries (replaced by 0).
     pub policy_nonfinite: bool,
     /// Solver iterations (0 when not called).
@@ -166,6 +242,10 @@ pub struct SafetyFilter {
     hi: Vec<f64>,
     v: Vec<f64>,
     last: Vec<f64>,
+    history: CommandHistory,
+    window: CommandWindow,
+    vmax: Vec<f64>,
+    defect: FilterDefect,
 }
 
 impl SafetyFilter {
@@ -207,6 +287,23 @@ impl SafetyFilter {
         }
         if settings.max_iter == 0 {
             return Err(bad("max_iter", "must be positive".into()));
+        }
+        if let Some(l) = settings.latency_s {
+            if !(l.is_finite() && l >= 0.0) {
+                return Err(bad("latency_s", format!("{l} must be finite and >= 0")));
+            }
+        }
+        if !(settings.state_delay_s.is_finite() && settings.state_delay_s >= 0.0) {
+            return Err(bad(
+                "state_delay_s",
+                format!("{} must be finite and >= 0", settings.state_delay_s),
+            ));
+        }
+        if !(settings.max_state_age_s.is_finite() && settings.max_state_age_s >= 0.0) {
+            return Err(bad(
+                "max_state_age_s",
+                format!("{} must be finite and >= 0", settings.max_state_age_s),
+            ));
         }
         if let Some(i) = limits
             .iter()
@@ -260,8 +357,17 @@ impl SafetyFilter {
                     message: e.to_string(),
                 }
             })?;
+        // Commands that can matter: those issued since the oldest state the bound covers,
+        // minus the latency, plus the one then in effect.
+        let span =
+            2.0 * settings.max_state_age_s + settings.state_delay_s + 2.0 * settings.latency();
+        let capacity = (span / settings.dt).ceil().min(1e5) as usize + 4;
         Ok(Self {
             n,
+            history: CommandHistory::new(n, capacity),
+            window: CommandWindow::new(n),
+            vmax: limits.iter().map(|l| l.velocity).collect(),
+            defect: FilterDefect::None,
             limits: limits.to_vec(),
             settings,
             solver,
@@ -288,11 +394,18 @@ impl SafetyFilter {
         &self.last
     }
 
-    /// Sets the last command (e.g. to the measured velocity at start-up).
+    /// Forgets the command history: the robot is taken to have run `last` (rad/s or m/s,
+    /// non-finite entries read as 0) for ever, e.g. its measured velocity at start-up.
     pub fn reset(&mut self, last: &[f64]) {
         for (l, &v) in self.last.iter_mut().zip(last) {
             *l = if v.is_finite() { v } else { 0.0 };
         }
+        self.history.reset_to(&self.last);
+    }
+
+    /// Breaks the filter on purpose (tests and `crossym stress --break`); see [`FilterDefect`].
+    pub fn inject_defect(&mut self, defect: FilterDefect) {
+        self.defect = defect;
     }
 
     /// Bounds of the last tick (lower, upper), rad/s or m/s.
@@ -300,61 +413,129 @@ impl SafetyFilter {
         (&self.lo, &self.hi)
     }
 
-    /// Filters the policy velocity `v` at measured position `q` into `out`. Allocation-free.
+    /// The acceleration step: one period (ticks are taken to be one period apart; a late
+    /// tick counts in `latency_s`).
+    fn since_last(&self, _now_s: f64) -> f64 {
+        self.settings.dt
+    }
+
+    /// Records `out` as the command issued at `now_s` (s).
+    fn commit(&mut self, now_s: f64, out: &[f64]) {
+        self.last.copy_from_slice(out);
+        self.history.push(now_s, out);
+    }
+
+    /// The braking command at `now_s` (s) into `out`: every joint's last command moved toward
+    /// zero by at most `a_max` times the time since it (never past zero). For ticks without a
+    /// usable state; the previous ticks' position bounds assumed exactly this plan.
+    /// Allocation-free.
+    pub fn brake(&mut self, now_s: f64, out: &mut [f64]) -> SafetyReport {
+        let since = self.since_last(now_s);
+        for (i, o) in out.iter_mut().enumerate().take(self.n) {
+            let a = self.limits[i]
+                .acceleration
+                .unwrap_or(self.settings.default_acceleration);
+            let u = self.last[i];
+            *o = if u > 0.0 {
+                (u - a * since).max(0.0)
+            } else {
+                (u + a * since).min(0.0)
+            };
+        }
+        self.commit(now_s, out);
+        SafetyReport {
+            status: SafetyStatus::Braking,
+            active: 0,
+            braking_saturated: 0,
+            policy_nonfinite: false,
+            iterations: 0,
+        }
+    }
+
+    /// Filters the policy velocity `v` at tick time `now_s` (s) into `out`, the position
+    /// bounds starting from `anchor`. Allocation-free.
     ///
     /// `jac` (m × n task Jacobian) shapes `W`; `barrier` adds the distance row when the
     /// filter was built with `min_ee_distance`. `out` is always finite and inside the
-    /// velocity, acceleration (unless braking overrides it) and braking-position bounds.
+    /// velocity and acceleration bounds, and inside the position bounds whenever they are
+    /// reachable within the acceleration limit (else the joint brakes at `a_max`).
     pub fn filter(
         &mut self,
-        q: &[f64],
+        now_s: f64,
+        anchor: Anchor<'_>,
         v: &[f64],
         jac: Option<&DMatrix<f64>>,
         barrier: Option<Barrier<'_>>,
         out: &mut [f64],
     ) -> SafetyReport {
         let n = self.n;
+        let (q, measured_at) = match anchor {
+            Anchor::Measured { q, time_s } => (q, Some(time_s)),
+            Anchor::Commanded { q } => (q, None),
+        };
         assert!(
             q.len() == n && v.len() == n && out.len() == n,
             "safety filter: wrong dimensions"
         );
         let dt = self.settings.dt;
-        let mut report = SafetyReport {
-            status: SafetyStatus::Filtered,
-            active: 0,
-            accel_overridden: 0,
-            policy_nonfinite: false,
-            iterations: 0,
-        };
-        if q.iter().any(|x| !x.is_finite()) {
+        let latency = self.settings.latency();
+        if q.iter().any(|x| !x.is_finite()) || !now_s.is_finite() {
             // No position information: brake every joint toward zero within its acceleration limit.
-            for i in 0..n {
-                let a = self.limits[i]
-                    .acceleration
-                    .unwrap_or(self.settings.default_acceleration);
-                let u = self.last[i];
-                out[i] = if u > 0.0 {
-                    (u - a * dt).max(0.0)
-                } else {
-                    (u + a * dt).min(0.0)
-                };
-            }
-            self.last.copy_from_slice(out);
+            let mut report = self.brake(now_s, out);
             report.status = SafetyStatus::InvalidState;
             return report;
         }
+        let mut report = SafetyReport {
+            status: SafetyStatus::Filtered,
+            active: 0,
+            braking_saturated: 0,
+            policy_nonfinite: false,
+            iterations: 0,
+        };
+        // The horizon of this tick: since the measurement (minus its own delay), the latency.
+        let (age, lat) = match measured_at {
+            Some(t) => {
+                let s = if t.is_finite() { t.min(now_s) } else { now_s };
+                let s = s - self.settings.state_delay_s;
+                self.history
+                    .window(s, now_s, latency, &self.vmax, &mut self.window);
+                (now_s - s, latency)
+            }
+            None => (0.0, 0.0),
+        };
+        let since = match self.defect {
+            FilterDefect::NoAccelerationBound => 1e9 * dt,
+            _ => self.since_last(now_s),
+        };
         for i in 0..n {
+            let h = match measured_at {
+                Some(_) if self.defect != FilterDefect::NoHorizon => Horizon {
+                    age,
+                    latency: lat,
+                    past_max: self.window.past_max[i],
+                    past_min: self.window.past_min[i],
+                    recent_max: self.window.recent_max[i],
+                    recent_min: self.window.recent_min[i],
+                },
+                _ => Horizon::NOW,
+            };
+            let mut lim = self.limits[i];
+            if self.defect == FilterDefect::NoPositionBound {
+                (lim.lower, lim.upper) = (f64::NEG_INFINITY, f64::INFINITY);
+            }
             let b = joint_bounds(
-                &self.limits[i],
+                &lim,
                 self.settings.default_acceleration,
                 self.settings.margin,
                 q[i],
                 self.last[i],
                 dt,
+                since,
+                &h,
             );
             self.lo[i] = b.lo;
             self.hi[i] = b.hi;
-            report.accel_overridden += u32::from(b.accel_overridden);
+            report.braking_saturated += u32::from(b.braking_saturated);
             self.v[i] = if v[i].is_finite() {
                 v[i]
             } else {
@@ -382,7 +563,7 @@ impl SafetyFilter {
             .all(|(x, (l, h))| x >= l && x <= h);
         if inside && barrier_ok(&self.v) {
             out.copy_from_slice(&self.v);
-            self.last.copy_from_slice(out);
+            self.commit(now_s, out);
             report.status = SafetyStatus::Passthrough;
             return report;
         }
@@ -467,7 +648,7 @@ impl SafetyFilter {
                 (out[i] - self.lo[i]).abs() <= 1e-12 || (out[i] - self.hi[i]).abs() <= 1e-12
             })
             .count() as u32;
-        self.last.copy_from_slice(out);
+        self.commit(now_s, out);
         report
     }
 

@@ -1,10 +1,16 @@
 //! Safety: every command the node publishes passes through a joint-limit QP filter.
 //!
-//! - [`bounds`]: per-joint velocity, acceleration and braking-aware position bounds.
+//! - [`bounds`]: per-joint velocity, acceleration and position bounds that hold over the
+//!   time a command can act (state age, actuation latency, one period, braking).
+//! - [`history`]: the commands published so far, and which ones the robot may still run.
 //! - [`filter`]: the QP `min (x − v)ᵀW(x − v)` under those bounds and an optional
 //!   end-effector distance barrier, solved with Clarabel set up once.
 
 pub mod bounds;
 pub mod filter;
+pub mod history;
 
-pub use filter::{Barrier, SafetyError, SafetyFilter, SafetyReport, SafetySettings, SafetyStatus};
+pub use filter::{
+    Anchor, Barrier, FilterDefect, SafetyError, SafetyFilter, SafetyReport, SafetySettings,
+    SafetyStatus,
+};

@@ -8,13 +8,18 @@
 //! forever (as ros2_control's ForwardCommandController does). Published positions carry
 //! Gaussian noise `N(0, noise_std²)`. Limits are **not** enforced: every position or
 //! velocity outside the URDF limits is counted and logged, so a bad controller shows.
-//! Faults: `frozen` (the state stops changing but messages keep coming) or `silent` (no
-//! more joint states) after `fault_after_s`.
+//! Faults, from `fault_after_s` (or, with `fault_near_limit`, from the first step after it
+//! at which a joint moves toward a position limit close to it) for `fault_duration_s` (or
+//! to the end): `frozen` (the state stops changing but messages keep coming), `silent` (no
+//! more joint states), `nan_position` (one controlled joint's published position is NaN)
+//! or `missing_joint` (one controlled joint is left out of the message). During the last
+//! two the robot keeps integrating commands: its sensors fail, not its motors.
 //!
 //! [`MockHardware`] is the simulation without DDS; [`process`] runs it as a DDS node.
 
 pub mod process;
 pub mod scenario;
+pub mod stress;
 
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -31,6 +36,12 @@ pub enum FaultKind {
     Frozen,
     /// No more joint states are published (driver crash, cable).
     Silent,
+    /// The `fault_joint`'s published position is NaN (encoder fault); commands are still
+    /// integrated.
+    NanPosition,
+    /// The `fault_joint` is left out of the published message (a driver dropping a
+    /// joint); commands are still integrated.
+    MissingJoint,
 }
 
 /// `[mock_hw]`: the simulated robot's settings.
@@ -62,8 +73,17 @@ pub struct MockHwConfig {
     pub drop_probability: f64,
     /// Fault kind, if any.
     pub fault: Option<FaultKind>,
-    /// Time after start when the fault begins (s).
+    /// Time after start when the fault begins (s); with `fault_near_limit`, the earliest.
     pub fault_after_s: f64,
+    /// Length of the fault window (s); `None`: to the end of the run.
+    pub fault_duration_s: Option<f64>,
+    /// Controlled joint that `nan_position` / `missing_joint` corrupt; `None`: the first
+    /// controlled joint.
+    pub fault_joint: Option<String>,
+    /// Distance (rad or m): the fault begins at the first step after `fault_after_s` at
+    /// which a controlled joint within this distance of a position limit moves toward it
+    /// at ≥ 25 % of its velocity limit; `None`: at `fault_after_s`.
+    pub fault_near_limit: Option<f64>,
     /// Random seed for jitter, noise and drops.
     pub seed: u64,
     /// Tolerance for counting a limit violation (rad, rad/s).
@@ -89,6 +109,9 @@ impl Default for MockHwConfig {
             drop_probability: 0.0,
             fault: None,
             fault_after_s: 0.0,
+            fault_duration_s: None,
+            fault_joint: None,
+            fault_near_limit: None,
             seed: 0,
             violation_tolerance: 1e-6,
             reset_settle_s: 0.05,
@@ -114,6 +137,16 @@ impl MockHwConfig {
         ] {
             if !nonneg(v) {
                 return Err(format!("{k} = {v} must be finite and >= 0"));
+            }
+        }
+        if let Some(v) = self.fault_duration_s {
+            if !pos(v) {
+                return Err(format!("fault_duration_s = {v} must be finite and > 0"));
+            }
+        }
+        if let Some(v) = self.fault_near_limit {
+            if !nonneg(v) {
+                return Err(format!("fault_near_limit = {v} must be finite and >= 0"));
             }
         }
         if !(0.0..=1.0).contains(&self.drop_probability) {
@@ -166,6 +199,15 @@ pub struct MockHwSummary {
     pub max_abs_velocity: Vec<f64>,
     /// The last valid command received (velocities or positions of the controlled joints).
     pub last_command: Vec<f64>,
+    /// Simulation time when the fault began (s); `None`: no fault (yet).
+    #[serde(default)]
+    pub fault_started_s: Option<f64>,
+    /// With `fault_near_limit`: the joint whose approach to a limit started the fault.
+    #[serde(default)]
+    pub fault_trigger_joint: Option<String>,
+    /// Joint states published while the fault was active (count).
+    #[serde(default)]
+    pub joint_states_faulted: u64,
 }
 
 /// The simulated robot (no DDS). Positions of all movable URDF joints; the controlled ones
@@ -178,6 +220,12 @@ pub struct MockHardware {
     /// Index into `names` of each controlled joint.
     controlled: Vec<usize>,
     limits: Vec<JointLimits>,
+    /// Index into `names` of the joint `nan_position` / `missing_joint` corrupt.
+    fault_joint: usize,
+    /// When the fault window began (s), once it has.
+    fault_start_s: Option<f64>,
+    /// Velocity of each controlled joint over the last step (rad/s or m/s).
+    vel: Vec<f64>,
     q: Vec<f64>,
     cmd: Vec<f64>,
     has_cmd: bool,
@@ -231,6 +279,14 @@ impl MockHardware {
             q[i] = q0;
             idx.push(i);
         }
+        let fault_joint = match &cfg.fault_joint {
+            Some(f) => controlled
+                .iter()
+                .position(|c| c == f)
+                .map(|k| idx[k])
+                .ok_or_else(|| format!("fault_joint `{f}` is not a controlled joint"))?,
+            None => idx.first().copied().unwrap_or(0),
+        };
         let n = controlled.len();
         let rng = StdRng::seed_from_u64(cfg.seed);
         Ok(Self {
@@ -238,6 +294,9 @@ impl MockHardware {
             names,
             controlled: idx,
             limits: limits.to_vec(),
+            fault_joint,
+            fault_start_s: None,
+            vel: vec![0.0; n],
             q,
             cmd: vec![0.0; n],
             has_cmd: false,
@@ -316,10 +375,58 @@ impl MockHardware {
         true
     }
 
-    fn faulted(&self) -> Option<FaultKind> {
-        self.cfg
-            .fault
-            .filter(|_| self.time_s >= self.cfg.fault_after_s)
+    /// When the fault window begins (s): `fault_after_s`, or with `fault_near_limit` the
+    /// time it was triggered; `None` without a fault or before the trigger.
+    fn fault_window_start(&self) -> Option<f64> {
+        self.cfg.fault?;
+        match self.cfg.fault_near_limit {
+            Some(_) => self.fault_start_s,
+            None => Some(self.cfg.fault_after_s),
+        }
+    }
+
+    /// The fault active at the current time, if any.
+    pub fn faulted(&self) -> Option<FaultKind> {
+        let kind = self.cfg.fault?;
+        let start = self.fault_window_start()?;
+        let end = start + self.cfg.fault_duration_s.unwrap_or(f64::INFINITY);
+        (self.time_s >= start && self.time_s < end).then_some(kind)
+    }
+
+    /// Starts a `fault_near_limit` fault at `now` (s) when a controlled joint moves toward a
+    /// position limit within that distance of it.
+    fn arm_fault(&mut self, now: f64) {
+        let Some(near) = self.cfg.fault_near_limit else {
+            return;
+        };
+        if self.cfg.fault.is_none() || self.fault_start_s.is_some() || now < self.cfg.fault_after_s
+        {
+            return;
+        }
+        for k in 0..self.controlled.len() {
+            let (l, q, v) = (self.limits[k], self.q[self.controlled[k]], self.vel[k]);
+            let min_speed = if l.velocity.is_finite() && l.velocity > 0.0 {
+                0.25 * l.velocity
+            } else {
+                f64::MIN_POSITIVE
+            };
+            let side = if v >= min_speed && l.upper - q <= near {
+                "upper"
+            } else if -v >= min_speed && q - l.lower <= near {
+                "lower"
+            } else {
+                continue;
+            };
+            let joint = self.names[self.controlled[k]].clone();
+            eprintln!(
+                "mock_hw: fault {:?} on {} from t = {now:.3} s: {joint} at {q:.6} moves toward its {side} limit at {v:.3}",
+                self.cfg.fault.unwrap_or(FaultKind::Frozen),
+                self.names[self.fault_joint],
+            );
+            self.fault_start_s = Some(now);
+            self.summary.fault_trigger_joint = Some(joint);
+            return;
+        }
     }
 
     /// Advances the simulation by `dt` (s).
@@ -337,6 +444,7 @@ impl MockHardware {
                 k += 1;
             }
         }
+        self.vel.fill(0.0);
         if self.faulted() != Some(FaultKind::Frozen) && self.has_cmd {
             for k in 0..self.controlled.len() {
                 let i = self.controlled[k];
@@ -351,12 +459,17 @@ impl MockHardware {
                         (self.q[i] - before) / dt
                     }
                 };
+                self.vel[k] = v;
                 let m = &mut self.summary.max_abs_velocity[k];
                 *m = m.max(v.abs());
                 self.check(k, v);
             }
         }
+        self.arm_fault(now);
         self.time_s = now;
+        if self.summary.fault_started_s.is_none() && self.faulted().is_some() {
+            self.summary.fault_started_s = self.fault_window_start();
+        }
     }
 
     fn check(&mut self, k: usize, v: f64) {
@@ -391,9 +504,12 @@ impl MockHardware {
         }
     }
 
-    /// Positions to publish (with noise) into `out` (all joints); false when silent.
+    /// Positions to publish (with noise and a `nan_position` fault) into `out` (all joints,
+    /// rad or m; a `missing_joint` fault is applied by [`Self::joint_state`]); false when
+    /// silent.
     pub fn measured(&mut self, out: &mut Vec<f64>) -> bool {
-        if self.faulted() == Some(FaultKind::Silent) {
+        let fault = self.faulted();
+        if fault == Some(FaultKind::Silent) {
             return false;
         }
         out.clear();
@@ -408,7 +524,28 @@ impl MockHardware {
                     * (2.0 * std::f64::consts::PI * u2).cos();
             }
         }
+        if fault == Some(FaultKind::NanPosition) {
+            out[self.fault_joint] = f64::NAN;
+        }
         self.summary.joint_states_published += 1;
+        if fault.is_some() {
+            self.summary.joint_states_faulted += 1;
+        }
+        true
+    }
+
+    /// The joint state to publish: joint names and positions (rad or m, with noise and the
+    /// active fault: a NaN, or the `fault_joint` left out); false when silent.
+    pub fn joint_state(&mut self, names: &mut Vec<String>, positions: &mut Vec<f64>) -> bool {
+        if !self.measured(positions) {
+            return false;
+        }
+        names.clear();
+        names.extend(self.names.iter().cloned());
+        if self.faulted() == Some(FaultKind::MissingJoint) {
+            names.remove(self.fault_joint);
+            positions.remove(self.fault_joint);
+        }
         true
     }
 }

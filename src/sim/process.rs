@@ -80,6 +80,7 @@ pub fn run(
         let mut timer = tokio::time::interval(Duration::from_secs_f64(dt));
         timer.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
         let mut positions = Vec::new();
+        let mut names = Vec::new();
         loop {
             tokio::select! {
                 _ = &mut signals => break,
@@ -109,13 +110,13 @@ pub fn run(
                         }
                     }
                     hw.step(dt);
-                    if hw.measured(&mut positions) {
+                    if hw.joint_state(&mut names, &mut positions) {
                         let m = msg::JointState {
                             header: msg::Header {
                                 stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
                                 frame_id: String::new(),
                             },
-                            name: hw.names.clone(),
+                            name: names.clone(),
                             position: positions.clone(),
                             velocity: Vec::new(),
                             effort: Vec::new(),
@@ -131,10 +132,11 @@ pub fn run(
     })?;
     let summary = hw.summary().clone();
     eprintln!(
-        "mock_hw: stopped after {:.2} s: {} commands, {} limit violations",
+        "mock_hw: stopped after {:.2} s: {} commands, {} limit violations, {} faulty joint states",
         hw.time_s(),
         summary.commands_received,
-        summary.violation_count
+        summary.violation_count,
+        summary.joint_states_faulted
     );
     if let Some(p) = summary_path {
         let text = serde_json::to_string_pretty(&summary).unwrap_or_default();

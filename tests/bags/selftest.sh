@@ -24,10 +24,15 @@ run v8_zstd --all-topics --version 8 --compress zstd
 run no_qos --no-qos --seconds 0.5
 run long --all-topics --seconds 30
 
-# A corrupted bag must fail: one more message claimed in metadata.yaml.
+# A corrupted bag must fail: one more message claimed in metadata.yaml. It must fail on
+# that count (a FAIL line of read_bag's own checks), not because read_bag crashed.
 cp -r "$tmp/all_topics" "$tmp/bad"
 sed -i '0,/message_count: 200/s//message_count: 201/' "$tmp/bad/metadata.yaml"
-if "$PY" "$here/read_bag.py" "$tmp/bad" >"$tmp/bad.log"; then
+if "$PY" "$here/read_bag.py" "$tmp/bad" >"$tmp/bad.log" 2>&1; then
     cat "$tmp/bad.log"; echo "selftest: corrupted bag was NOT detected" >&2; exit 1
 fi
-echo "selftest: corrupted bag detected OK"
+if ! grep -q '^FAIL  metadata.yaml per-topic message counts match the MCAP file' "$tmp/bad.log" \
+    || ! tail -1 "$tmp/bad.log" | grep -q '^read_bag: [0-9]* of [0-9]* checks FAILED$'; then
+    cat "$tmp/bad.log"; echo "selftest: corrupted bag failed, but not on its message count" >&2; exit 1
+fi
+echo "selftest: corrupted bag detected OK ($(tail -1 "$tmp/bad.log"))"

@@ -193,6 +193,37 @@ fn independent_tools_read_crossym_bags() {
     }
 }
 
+/// The bag tools' own self-test (`tests/bags/selftest.sh`): bags written by rosbags pass
+/// `read_bag.py`, and a bag whose metadata.yaml claims one message too many fails it on that
+/// count — the checker can fail, so its ALL OK above means something.
+#[test]
+fn bag_tools_selftest_detects_a_corrupted_bag() {
+    python_tools();
+    let out = Command::new("bash")
+        .arg(common::root().join("tests/bags/selftest.sh"))
+        .env("PYTHON", "python3")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let report = format!("{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "selftest.sh exited with {:?}:\n{report}",
+        out.status.code()
+    );
+    for step in ["default", "all_topics", "v8_zstd", "no_qos", "long"] {
+        assert!(
+            stdout.contains(&format!("selftest: {step} OK (read_bag: ALL OK")),
+            "step {step}:\n{report}"
+        );
+    }
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("selftest: corrupted bag detected OK"))
+        .unwrap_or_else(|| panic!("no corrupted-bag step:\n{report}"));
+    assert!(line.ends_with("checks FAILED)"), "{line}");
+}
+
 fn letters() -> (Config, NodeCore) {
     let cfg = Config::from_file(common::root().join("config/letters.toml")).unwrap();
     let core = NodeCore::from_config(&cfg, cfg.node_config()).unwrap();

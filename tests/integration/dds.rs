@@ -2,16 +2,21 @@
 //! does): the node and the mock hardware as child processes, the closed loop driven by the
 //! library's scenario runner, and an independent Python peer (PyPI `cyclonedds`).
 //! Each test uses its own ROS_DOMAIN_ID so tests running in parallel do not see each other.
+//!
+//! No wall-clock rate or duration is asserted (a loaded CI machine would fail it; speed is
+//! measured by the criterion benches): tests wait, with generous deadlines, until enough
+//! messages or the awaited event arrived ([`Watch`]), then assert counts.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::{score, EvalConfig};
 use crossym::policy::Policy;
-use crossym::ros::dds::{DdsSettings, DiscoveryRange};
+use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
+use crossym::ros::{msg, StatusCode};
 use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
 use crossym::sim::MockHwSummary;
 use crossym::symmetry::compose::Condition;
@@ -82,6 +87,90 @@ impl Drop for Proc {
         }
     }
 }
+
+/// A DDS observer in the test process: the node's status and the joint states, so a test
+/// waits for counts and events (with generous deadlines) instead of sleeping.
+struct Watch {
+    status: ros2_client::Subscription<msg::Status>,
+    joint_states: ros2_client::Subscription<msg::JointState>,
+    _node: ros2_client::Node,
+    _ctx: ros2_client::Context,
+}
+
+impl Watch {
+    /// Subscribes to the node's status and the joint states of the node configured by `cfg`.
+    fn new(domain: u16, cfg: &Config) -> Watch {
+        let node_cfg = cfg.node.as_ref().expect("[node]");
+        let topics = ScenarioTopics::new(node_cfg, "/mock_hw/reset");
+        let settings = DdsSettings {
+            domain_id: domain,
+            range: DiscoveryRange::Localhost,
+        };
+        let ctx = settings.context().expect("DDS context");
+        let name = format!("crossym_test_watch_{}_{domain}", std::process::id());
+        let mut node = ctx
+            .new_node(
+                dds::node_name("/", &name).unwrap(),
+                ros2_client::NodeOptions::new().enable_rosout(false),
+            )
+            .expect("DDS node");
+        let status = dds::subscription(&mut node, &topics.status, dds::qos_reliable(100)).unwrap();
+        let joint_states =
+            dds::subscription(&mut node, &topics.joint_states, dds::qos_sensor()).unwrap();
+        Watch {
+            status,
+            joint_states,
+            _node: node,
+            _ctx: ctx,
+        }
+    }
+
+    /// The first status (oldest first) for which `pred` holds, within `timeout`.
+    fn wait_status(
+        &self,
+        timeout: Duration,
+        mut pred: impl FnMut(&msg::Status) -> bool,
+    ) -> Option<msg::Status> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            while let Ok(Some((s, _))) = self.status.take() {
+                if pred(&s) {
+                    return Some(s);
+                }
+            }
+            if Instant::now() > deadline {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    /// True once `n` consecutive joint states carry the same positions (the robot stands
+    /// still), false if that does not happen within `timeout`.
+    fn wait_still(&self, n: usize, timeout: Duration) -> bool {
+        let deadline = Instant::now() + timeout;
+        let (mut last, mut same): (Vec<f64>, usize) = (Vec::new(), 0);
+        loop {
+            while let Ok(Some((m, _))) = self.joint_states.take() {
+                if m.position == last {
+                    same += 1;
+                } else {
+                    (last, same) = (m.position, 1);
+                }
+                if same >= n {
+                    return true;
+                }
+            }
+            if Instant::now() > deadline {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+}
+
+/// Generous deadline of every wait on DDS traffic (normally met within a second or two).
+const DEADLINE: Duration = Duration::from_secs(60);
 
 fn tmp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("crossym-dds-{name}-{}", std::process::id()));
@@ -227,6 +316,7 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
         range: DiscoveryRange::Localhost,
     };
     let topics = ScenarioTopics::new(&node_cfg, "/mock_hw/reset");
+    let watch = Watch::new(domain, &cfg);
     let results = scenario::run(
         settings,
         &topics,
@@ -242,13 +332,33 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
             log_tail(&hw_log)
         )
     });
+    // Counts, not rates: the node runs until it has ticked (published and recorded a command)
+    // MIN_TICKS times since the first status seen here; the three 2 s steps normally take it
+    // past that.
+    const MIN_TICKS: u64 = 400;
+    let mut first = None;
+    let ticked = watch.wait_status(DEADLINE, |s| {
+        let t0 = *first.get_or_insert(s.ticks);
+        s.ticks >= t0 + MIN_TICKS
+    });
+    assert!(
+        ticked.is_some(),
+        "the node did not tick {MIN_TICKS} times within {DEADLINE:?}\n{}",
+        log_tail(&node_log)
+    );
     assert_eq!(node.term(), 0, "node exit code\n{}", log_tail(&node_log));
-    std::thread::sleep(Duration::from_millis(300));
+    // The mock hardware has applied the node's final command (zero velocity / hold) once its
+    // joint states stop changing (0.1 s at 200 Hz); then it may stop.
+    let still = watch.wait_still(20, DEADLINE);
     let hw_rc = hw.term();
     let s: MockHwSummary =
         serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
     assert_eq!(s.violation_count, 0, "violations: {:?}", s.violations);
     assert_eq!(hw_rc, 0);
+    assert!(
+        still,
+        "the mock hardware kept moving after the node stopped: {s:?}"
+    );
     assert!(s.commands_received > 300, "{s:?}");
     assert_eq!(s.commands_invalid, 0);
     assert_eq!(s.resets, steps.len() as u64);
@@ -300,8 +410,12 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
             r.rmse,
             off.rmse
         );
-        assert!(r.samples >= 190, "{}: {} samples", r.label, r.samples);
-        assert!(r.statuses >= 10, "{}: {} statuses", r.label, r.statuses);
+        // The step's window is the trajectory's 2 s on the mock hardware's clock (set by the
+        // scenario runner), so a minimum count would assert a rate: the step is scored on
+        // joint states from its start to its end, with the node's status seen during it.
+        // The traffic's volume is asserted as counts above (ticks, commands received, replayed).
+        assert!(r.samples >= 2, "{}: {} samples", r.label, r.samples);
+        assert!(r.statuses >= 1, "{}: {} statuses", r.label, r.statuses);
         assert!(r.abnormal_codes.is_empty(), "{r:?}");
         assert!(r.tick_max_us > 0.0);
     }
@@ -365,6 +479,46 @@ fn independent_cyclonedds_peer() {
     assert_eq!(node.term(), 0);
 }
 
+/// The peer's CDR self-test (`dds_peer.py --cdr-selftest`, no DDS traffic): its four
+/// message types serialize to hand-built XCDR1 bytes and decode them. The peer's checks
+/// rest on these types, so this shows they can fail on a layout error.
+#[test]
+fn peer_cdr_selftest() {
+    assert!(
+        python_has_cyclonedds(),
+        "PyPI cyclonedds is missing: run `bash tests/peer/install.sh` (.ci/run does)"
+    );
+    let out = Command::new("python3")
+        .arg(common::root().join("tests/peer/dds_peer.py"))
+        .arg("--cdr-selftest")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let report = format!("{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "--cdr-selftest exited with {:?}:\n{report}",
+        out.status.code()
+    );
+    for ty in [
+        "JointState",
+        "Float64MultiArray",
+        "SymmetryCondition",
+        "Status",
+    ] {
+        for check in [
+            format!("PASS  CDR {ty} ("),
+            format!("PASS  CDR {ty} decodes the hand-built bytes"),
+        ] {
+            assert!(
+                stdout.lines().any(|l| l.starts_with(&check)),
+                "{check}…:\n{report}"
+            );
+        }
+    }
+    assert!(stdout.contains("dds_peer: 8 passed, 0 failed"), "{report}");
+}
+
 /// A broken config or policy is a clear error (exit 2), not a panic, and opens no DDS.
 #[test]
 fn node_refuses_bad_setup() {
@@ -408,7 +562,6 @@ fn node_refuses_bad_setup() {
 #[test]
 fn live_replay_feeds_a_node() {
     use crossym::bag::Bag;
-    use crossym::ros::msg;
     let dir = tmp_dir("live");
     let domain = 64u16;
     let golden = common::root().join("tests/data/golden_letters");
@@ -428,6 +581,15 @@ fn live_replay_feeds_a_node() {
         domain,
         &node_log,
     );
+    // The player waits a fixed 2 s for discovery before its first sample: start it once the
+    // node is up (its first status), so the node's start-up does not eat into them.
+    let cfg = Config::from_file(&cfg_s).unwrap();
+    let watch = Watch::new(domain, &cfg);
+    assert!(
+        watch.wait_status(DEADLINE, |_| true).is_some(),
+        "no status from the node within {DEADLINE:?}\n{}",
+        log_tail(&node_log)
+    );
     let out = Command::new(exe())
         .args(["replay", golden.to_str().unwrap(), "--live", "--config"])
         .arg(&cfg_s)
@@ -442,7 +604,20 @@ fn live_replay_feeds_a_node() {
         "{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    std::thread::sleep(Duration::from_millis(300));
+    // The node has taken the last played joint state once a tick after the player exited
+    // found its joint states stale; it runs until it has ticked (published and recorded a
+    // command) 200 times.
+    let played_until = dds::wall_time_s();
+    let done = watch.wait_status(DEADLINE, |s| {
+        s.code == StatusCode::StaleJointStates as i8
+            && s.header.stamp.as_secs_f64() >= played_until
+            && s.ticks >= 200
+    });
+    assert!(
+        done.is_some(),
+        "no stale status (and 200 ticks) after the player exited, within {DEADLINE:?}\n{}",
+        log_tail(&node_log)
+    );
     assert_eq!(node.term(), 0, "{}", log_tail(&node_log));
     let played = Bag::open(&golden).unwrap();
     let got = Bag::open(&bag_dir).unwrap();
@@ -473,7 +648,6 @@ fn live_replay_feeds_a_node() {
     }
     let c = got.topic("/crossym/symmetry_condition").unwrap();
     assert_eq!(got.topics[c].count, 2);
-    let cfg = Config::from_file(&cfg_s).unwrap();
     let mut core = crossym::ros::NodeCore::from_config(&cfg, cfg.node_config()).unwrap();
     let topics = crossym::bag::replay::ReplayTopics::for_node(core.config());
     let r = crossym::bag::replay::replay(&got, &mut core, &topics).unwrap();
@@ -502,28 +676,51 @@ fn standalone_recorder_over_dds() {
         domain,
         &dir.join("node.log"),
     );
-    let out_dir = dir.join("bag");
-    let _ = std::fs::remove_dir_all(&out_dir);
-    let out = Command::new(exe())
-        .args(["record", "--config", c, "--duration-s", "3", "--out"])
-        .arg(&out_dir)
-        .env("ROS_DOMAIN_ID", domain.to_string())
-        .env("ROS_LOCALHOST_ONLY", "1")
-        .output()
-        .unwrap();
+    // Record once the node runs on the mock hardware's joint states (a status not stale).
+    let watch = Watch::new(domain, &Config::from_file(&cfg_s).unwrap());
     assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        watch
+            .wait_status(DEADLINE, |s| s.code != StatusCode::StaleJointStates as i8)
+            .is_some(),
+        "the node never ran on fresh joint states within {DEADLINE:?}\n{}",
+        log_tail(&dir.join("node.log"))
     );
-    assert_eq!(node.term(), 0);
-    assert_eq!(hw.term(), 0);
-    let bag = Bag::open(&out_dir).unwrap();
-    for (t, min) in [
+    // Counts, not rates: a recording of 3 s normally holds these; on a loaded machine the
+    // recording is repeated, longer each time (6, 12, 24 s), before the counts are judged.
+    let want = [
         ("/joint_states", 100),
         ("/forward_velocity_controller/commands", 100),
         ("/crossym/status", 5),
-    ] {
+    ];
+    let mut bag = None;
+    for (k, secs) in ["3", "6", "12", "24"].into_iter().enumerate() {
+        let out_dir = dir.join(format!("bag{k}"));
+        let _ = std::fs::remove_dir_all(&out_dir);
+        let out = Command::new(exe())
+            .args(["record", "--config", c, "--duration-s", secs, "--out"])
+            .arg(&out_dir)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_LOCALHOST_ONLY", "1")
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let b = Bag::open(&out_dir).unwrap();
+        let enough = want
+            .iter()
+            .all(|&(t, min)| b.topic(t).is_some_and(|i| b.topics[i].count >= min));
+        bag = Some(b);
+        if enough {
+            break;
+        }
+    }
+    let bag = bag.expect("recorded");
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+    for (t, min) in want {
         let i = bag.topic(t).unwrap_or_else(|| panic!("{t} missing"));
         assert!(bag.topics[i].count >= min, "{t}: {}", bag.topics[i].count);
     }
@@ -585,7 +782,9 @@ fn rby1_demo(config: &str, conditions: &[&str], domain: u16, name: &str) {
     assert!(std::fs::metadata(dir.join("demo.png")).unwrap().len() > 1000);
     let bag = crossym::bag::Bag::open(&dir.join("bag")).unwrap();
     let cmd_topic = bag.topic("/position_controller/commands").unwrap();
-    assert!(bag.topics[cmd_topic].count > 100);
+    // Recorded over the demo's fixed durations: any count beyond "some" would be a rate
+    // (`demo: OK` already required their offline replay to match).
+    assert!(bag.topics[cmd_topic].count > 0);
     let summary: MockHwSummary =
         serde_json::from_str(&std::fs::read_to_string(dir.join("mock_hw_summary.json")).unwrap())
             .unwrap();

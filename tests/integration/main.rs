@@ -10,6 +10,7 @@ mod data;
 mod dds;
 mod descend;
 mod eval;
+mod faults;
 mod kinematics;
 mod lift_compose;
 mod policy;

@@ -689,11 +689,31 @@ fn position_mode_never_leaves_the_limits() {
             .filter(|(l, p)| (*p - l.upper).abs() < 0.05 || (*p - l.lower).abs() < 0.05)
             .count();
         assert!(at_limit > 0, "{mode:?}: no joint reached a limit");
-        // Stale: hold the last commanded position, zero velocity.
+        // Stale: brake at the acceleration limit along the last command, then hold still.
+        let mut prev_v = cmd.velocities.clone();
+        let mut prev_p = cmd.positions.clone();
+        for k in 0..200 {
+            let r = core.tick(100.0 + 0.01 * k as f64, &mut cmd);
+            assert_eq!(r.code, StatusCode::StaleJointStates);
+            assert!(r.publish);
+            for (j, l) in limits.iter().enumerate() {
+                let a = l.acceleration.unwrap_or(30.0);
+                let v = (cmd.positions[j] - prev_p[j]) / 0.01;
+                assert!(
+                    (v - prev_v[j]).abs() <= a * 0.01 * (1.0 + 1e-9) + 1e-9,
+                    "joint {j}"
+                );
+                assert!(
+                    v.abs() <= prev_v[j].abs() + 1e-9,
+                    "joint {j} speeds up while stale"
+                );
+                assert!(cmd.positions[j] >= l.lower && cmd.positions[j] <= l.upper);
+                prev_v[j] = v;
+            }
+            prev_p.copy_from_slice(&cmd.positions);
+        }
         let held = cmd.positions.clone();
-        let r = core.tick(100.0, &mut cmd);
-        assert_eq!(r.code, StatusCode::StaleJointStates);
-        assert!(r.publish);
+        core.tick(103.0, &mut cmd);
         assert_eq!(cmd.positions, held);
         assert!(cmd.velocities.iter().all(|&v| v == 0.0));
         // The trajectory message carries one point reached after Δt.

@@ -1,56 +1,19 @@
-//! Safety filter properties over random and adversarial inputs: outputs are finite and
-//! inside every limit, the fast path returns `v` exactly, and a closed loop driven by a
-//! hostile policy never leaves the joint range.
+//! Safety filter guarantees, checked against the physics of the situation rather than
+//! against the filter's own bounds: an independent simulated robot integrates the commands
+//! (with latency, stale and invalid states, starts at and beyond a limit) and the checks
+//! read only the joint limits. Each closed-loop check is also run on a deliberately broken
+//! filter ([`FilterDefect`]) and must then fail, so it is seen to be able to fail.
+
+use std::collections::VecDeque;
 
 use crossym::kinematics::JointLimits;
-use crossym::safety::{Barrier, SafetyFilter, SafetySettings, SafetyStatus};
+use crossym::ros::OutputMode;
+use crossym::safety::{Anchor, Barrier, FilterDefect, SafetyFilter, SafetySettings, SafetyStatus};
+use crossym::sim::stress::{run_campaign, Geometry, StressSettings};
 use nalgebra::DMatrix;
 use rand::Rng;
 
 use crate::common;
-
-fn check_output(
-    filter: &SafetyFilter,
-    limits: &[JointLimits],
-    q: &[f64],
-    prev: &[f64],
-    out: &[f64],
-    dt: f64,
-    settings: &SafetySettings,
-) {
-    let (lo, hi) = filter.bounds();
-    for i in 0..out.len() {
-        assert!(out[i].is_finite(), "non-finite output {out:?}");
-        assert!(
-            out[i].abs() <= limits[i].velocity + 1e-12,
-            "velocity limit joint {i}: {}",
-            out[i]
-        );
-        assert!(
-            out[i] >= lo[i] - 1e-12 && out[i] <= hi[i] + 1e-12,
-            "outside bounds joint {i}"
-        );
-        let a = limits[i]
-            .acceleration
-            .unwrap_or(settings.default_acceleration);
-        // Inside the range: one period then full braking stops before the (margin-shrunk) limit.
-        if q[i] <= limits[i].upper - settings.margin && out[i] > 0.0 {
-            assert!(
-                q[i] + out[i] * dt + out[i] * out[i] / (2.0 * a)
-                    <= limits[i].upper - settings.margin + 1e-9,
-                "braking upper joint {i}"
-            );
-        }
-        if q[i] >= limits[i].lower + settings.margin && out[i] < 0.0 {
-            assert!(
-                q[i] + out[i] * dt - out[i] * out[i] / (2.0 * a)
-                    >= limits[i].lower + settings.margin - 1e-9,
-                "braking lower joint {i}"
-            );
-        }
-        let _ = prev;
-    }
-}
 
 fn rby1_like_limits(n: usize) -> Vec<JointLimits> {
     (0..n)
@@ -64,14 +27,21 @@ fn rby1_like_limits(n: usize) -> Vec<JointLimits> {
         .collect()
 }
 
+fn accel(l: &JointLimits, s: &SafetySettings) -> f64 {
+    l.acceleration.unwrap_or(s.default_acceleration)
+}
+
 #[test]
-fn random_and_adversarial_inputs_give_safe_finite_commands() {
+fn random_and_adversarial_inputs_stay_within_velocity_and_acceleration_limits() {
+    // Checked against the limits and the previous output the test kept itself.
     let mut rng = common::rng(30);
     for &(n, with_jac) in &[(8usize, false), (8, true), (14, true)] {
         let limits = rby1_like_limits(n);
         let settings = SafetySettings::default();
+        let dt = settings.dt;
         let mut filter = SafetyFilter::new(&limits, settings).unwrap();
         let mut out = vec![0.0; n];
+        let mut prev = vec![0.0; n];
         for trial in 0..400 {
             let q: Vec<f64> = limits
                 .iter()
@@ -87,20 +57,43 @@ fn random_and_adversarial_inputs_give_safe_finite_commands() {
                 })
                 .collect();
             let jac = DMatrix::from_fn(4, n, |_, _| rng.random_range(-3.0..3.0));
-            let prev = filter.last_command().to_vec();
-            let rep = filter.filter(&q, &v, with_jac.then_some(&jac), None, &mut out);
+            let now = trial as f64 * dt;
+            let anchor = Anchor::Measured {
+                q: &q,
+                time_s: now - rng.random_range(0.0..0.05),
+            };
+            let rep = filter.filter(now, anchor, &v, with_jac.then_some(&jac), None, &mut out);
             assert!(rep.policy_nonfinite || v.iter().all(|x| x.is_finite()));
             assert_ne!(rep.status, SafetyStatus::InvalidState);
-            check_output(&filter, &limits, &q, &prev, &out, settings.dt, &settings);
+            for i in 0..n {
+                assert!(out[i].is_finite(), "non-finite output {out:?}");
+                assert!(out[i].abs() <= limits[i].velocity * (1.0 + 1e-12));
+                let a = accel(&limits[i], &settings);
+                assert!(
+                    (out[i] - prev[i]).abs() <= a * dt * (1.0 + 1e-9) + 1e-12,
+                    "acceleration joint {i}: {} -> {}",
+                    prev[i],
+                    out[i]
+                );
+            }
+            prev.copy_from_slice(&out);
         }
-        // Non-finite state: a braking command, still finite and within velocity limits.
+        // Non-finite state: a braking command, toward zero within the acceleration limit.
         let q = vec![f64::NAN; n];
-        let rep = filter.filter(&q, &vec![1.0; n], None, None, &mut out);
+        let now = 400.0 * dt;
+        let rep = filter.filter(
+            now,
+            Anchor::Commanded { q: &q },
+            &vec![1.0; n],
+            None,
+            None,
+            &mut out,
+        );
         assert_eq!(rep.status, SafetyStatus::InvalidState);
-        assert!(out
-            .iter()
-            .zip(&limits)
-            .all(|(x, l)| x.is_finite() && x.abs() <= l.velocity));
+        for i in 0..n {
+            assert!(out[i].is_finite() && out[i].abs() <= prev[i].abs());
+            assert!((out[i] - prev[i]).abs() <= accel(&limits[i], &settings) * dt * (1.0 + 1e-9));
+        }
     }
 }
 
@@ -112,50 +105,305 @@ fn fast_path_returns_the_policy_output_exactly() {
     let v = [0.05, -0.03, 0.01, 0.0, -0.07, 0.02, 0.09, -0.01];
     let mut out = vec![0.0; 8];
     let jac = DMatrix::from_fn(4, 8, |r, c| (r + c) as f64 * 0.1);
-    let rep = filter.filter(&q, &v, Some(&jac), None, &mut out);
+    let anchor = Anchor::Measured { q: &q, time_s: 0.0 };
+    let rep = filter.filter(0.0, anchor, &v, Some(&jac), None, &mut out);
     assert_eq!(rep.status, SafetyStatus::Passthrough);
     assert_eq!(out, v, "bit-exact pass-through");
     assert_eq!(rep.iterations, 0);
 }
 
-#[test]
-fn hostile_policy_never_drives_a_joint_out_of_range() {
-    let limits = rby1_like_limits(14);
-    let settings = SafetySettings::default();
+/// What the closed loop below does to the joint states.
+#[derive(Clone, Copy, Debug)]
+enum StateFault {
+    /// A fresh state every tick.
+    None,
+    /// States stop for this many ticks mid-run (NaN, missing joint: rejected by the node),
+    /// then come back.
+    Gap(usize),
+}
+
+/// An independent closed loop: the robot integrates velocity commands that reach it
+/// `latency_ticks` periods after they were issued (holding the last one), the filter sees
+/// the robot's position at its last valid state, and a hostile policy pushes every joint
+/// toward `toward` (±1) at 10 × its velocity limit. Returns the worst excess beyond a limit
+/// (rad, ≤ 0 when safe) and the worst acceleration excess of the commands (rad/s²).
+fn closed_loop(
+    defect: FilterDefect,
+    start: &[f64],
+    toward: f64,
+    latency_ticks: usize,
+    fault: StateFault,
+    ticks: usize,
+) -> (f64, f64) {
+    let limits = vec![
+        JointLimits {
+            lower: -0.35,
+            upper: 0.35,
+            velocity: 0.4,
+            effort: 1.0,
+            acceleration: Some(4.0),
+        };
+        start.len()
+    ];
+    let dt = 0.01;
+    let settings = SafetySettings {
+        dt,
+        margin: 0.005,
+        latency_s: Some(latency_ticks as f64 * dt + 1e-9),
+        max_state_age_s: 0.1,
+        ..Default::default()
+    };
     let mut filter = SafetyFilter::new(&limits, settings).unwrap();
-    let mut rng = common::rng(31);
-    let mut q: Vec<f64> = limits.iter().map(|l| 0.5 * (l.lower + l.upper)).collect();
-    let mut out = vec![0.0; 14];
-    let jac = DMatrix::from_fn(6, 14, |_, _| rng.random_range(-1.0..1.0));
-    for tick in 0..3000 {
-        // Push every joint toward a limit at absurd speed, switching sides now and then.
-        let side = if (tick / 500) % 2 == 0 { 1e9 } else { -1e9 };
-        let v: Vec<f64> = (0..14)
-            .map(|i| if i % 2 == 0 { side } else { -side })
-            .collect();
-        let prev = filter.last_command().to_vec();
-        let rep = filter.filter(&q, &v, Some(&jac), None, &mut out);
-        assert_ne!(rep.status, SafetyStatus::InvalidState);
-        check_output(&filter, &limits, &q, &prev, &out, settings.dt, &settings);
-        for i in 0..14 {
-            let a = limits[i]
-                .acceleration
-                .unwrap_or(settings.default_acceleration);
-            // Acceleration is respected unless braking had to override it.
-            if rep.accel_overridden == 0 {
-                assert!(
-                    (out[i] - prev[i]).abs() <= a * settings.dt + 1e-9,
-                    "acceleration joint {i}"
-                );
-            }
-            q[i] += out[i] * settings.dt;
+    filter.inject_defect(defect);
+    let n = start.len();
+    let mut q = start.to_vec();
+    let mut applied = vec![0.0; n];
+    let mut in_flight: VecDeque<Vec<f64>> = (0..latency_ticks).map(|_| vec![0.0; n]).collect();
+    let (mut state, mut state_t) = (q.clone(), 0.0);
+    let (mut worst_pos, mut worst_acc) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    let mut out = vec![0.0; n];
+    let mut prev = vec![0.0; n];
+    let v = vec![10.0 * 0.4 * toward; n];
+    for k in 0..ticks {
+        let now = k as f64 * dt;
+        let valid = match fault {
+            StateFault::None => true,
+            StateFault::Gap(g) => !(ticks / 3..ticks / 3 + g).contains(&k),
+        };
+        if valid {
+            state.copy_from_slice(&q);
+            state_t = now;
+        }
+        let stale = now - state_t > settings.max_state_age_s;
+        if stale {
+            filter.brake(now, &mut out);
+        } else {
+            let anchor = Anchor::Measured {
+                q: &state,
+                time_s: state_t,
+            };
+            filter.filter(now, anchor, &v, None, None, &mut out);
+        }
+        for i in 0..n {
+            worst_acc = worst_acc.max((out[i] - prev[i]).abs() / dt - 4.0);
+        }
+        prev.copy_from_slice(&out);
+        // Transport, then one period of motion at the command in effect.
+        in_flight.push_back(out.clone());
+        if let Some(c) = in_flight.pop_front() {
+            applied = c;
+        }
+        for i in 0..n {
+            q[i] += applied[i] * dt;
+            worst_pos = worst_pos.max(q[i] - 0.35).max(-0.35 - q[i]);
+        }
+    }
+    (worst_pos, worst_acc)
+}
+
+#[test]
+fn closed_loop_with_latency_and_state_gaps_never_crosses_a_limit() {
+    let cases = [
+        (vec![0.0, 0.2, 0.34, -0.3], 1.0, 1, StateFault::None),
+        (vec![0.0, 0.2, 0.34, -0.3], -1.0, 3, StateFault::None),
+        (vec![0.1, 0.25, 0.3, 0.0], 1.0, 1, StateFault::Gap(8)),
+        (vec![0.1, -0.25, 0.3, 0.0], -1.0, 2, StateFault::Gap(20)),
+        (vec![0.0, 0.0, 0.0, 0.0], 1.0, 3, StateFault::Gap(9)),
+    ];
+    for (start, toward, lat, fault) in &cases {
+        let (pos, acc) = closed_loop(FilterDefect::None, start, *toward, *lat, *fault, 300);
+        assert!(
+            pos <= 1e-12,
+            "{start:?} {fault:?} latency {lat}: {pos} rad past a limit"
+        );
+        assert!(
+            acc <= 1e-9,
+            "{start:?}: acceleration exceeded by {acc} rad/s²"
+        );
+    }
+    // The same loops on a filter that bounds positions as if every state were measured now
+    // with one period of latency (the node before issue 16) cross the limits.
+    let crossed = cases
+        .iter()
+        .filter(|(start, toward, lat, fault)| {
+            closed_loop(FilterDefect::NoHorizon, start, *toward, *lat, *fault, 300).0 > 1e-6
+        })
+        .count();
+    assert!(
+        crossed >= 3,
+        "the broken filter crossed in only {crossed} of 5 cases"
+    );
+    // And without an acceleration bound the commands jump.
+    let (_, acc) = closed_loop(
+        FilterDefect::NoAccelerationBound,
+        &cases[0].0,
+        1.0,
+        1,
+        StateFault::None,
+        100,
+    );
+    assert!(acc > 1.0, "no acceleration excess seen: {acc}");
+}
+
+#[test]
+fn beyond_a_limit_the_robot_moves_back_and_never_further() {
+    // Start 30 mrad past the upper limit, the policy pushing outward: the robot must never
+    // go further than where it started, and must come back inside.
+    let limits = vec![JointLimits {
+        lower: -0.35,
+        upper: 0.35,
+        velocity: 0.4,
+        effort: 1.0,
+        acceleration: Some(4.0),
+    }];
+    let dt = 0.01;
+    let mut filter = SafetyFilter::new(
+        &limits,
+        SafetySettings {
+            dt,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let mut q = 0.38;
+    let mut out = [0.0];
+    let mut furthest = q;
+    let mut back_inside = None;
+    for k in 0..200 {
+        let now = k as f64 * dt;
+        filter.filter(
+            now,
+            Anchor::Measured {
+                q: &[q],
+                time_s: now,
+            },
+            &[4.0],
+            None,
+            None,
+            &mut out,
+        );
+        if q > 0.35 {
             assert!(
-                q[i] <= limits[i].upper && q[i] >= limits[i].lower,
-                "tick {tick}: joint {i} at {} outside [{}, {}]",
-                q[i],
-                limits[i].lower,
-                limits[i].upper
+                out[0] <= 0.0,
+                "tick {k}: command {} pushes further out",
+                out[0]
             );
+        }
+        q += out[0] * dt;
+        furthest = furthest.max(q);
+        if q <= 0.35 && back_inside.is_none() {
+            back_inside = Some(k);
+        }
+        if back_inside.is_some() {
+            assert!(q <= 0.35 + 1e-12, "tick {k}: out again at {q}");
+        }
+    }
+    assert!(furthest <= 0.38);
+    assert!(q <= 0.35, "still beyond the limit after 2 s: {q}");
+}
+
+#[test]
+fn solver_failure_falls_back_to_a_command_inside_the_limits() {
+    // One interior-point iteration cannot solve a QP with an active barrier: the status is
+    // Fallback and the command is still inside the velocity and acceleration limits.
+    let limits = vec![
+        JointLimits {
+            lower: -3.0,
+            upper: 3.0,
+            velocity: 1.0,
+            effort: 1.0,
+            acceleration: Some(100.0),
+        };
+        3
+    ];
+    let settings = SafetySettings {
+        max_iter: 1,
+        min_ee_distance: Some(0.1),
+        ..Default::default()
+    };
+    let mut filter = SafetyFilter::new(&limits, settings).unwrap();
+    let jac = DMatrix::from_row_slice(2, 3, &[1.0, 0.5, 0.2, -0.3, 1.0, 0.7]);
+    let grad = [-1.0, -0.5, 0.3];
+    let mut out = vec![0.0; 3];
+    let rep = filter.filter(
+        0.0,
+        Anchor::Commanded { q: &[0.0; 3] },
+        &[5.0, 5.0, -5.0],
+        Some(&jac),
+        Some(Barrier {
+            gradient: &grad,
+            value: 0.01,
+        }),
+        &mut out,
+    );
+    assert_eq!(rep.status, SafetyStatus::Fallback);
+    for x in &out {
+        assert!(x.is_finite() && x.abs() <= 1.0 && x.abs() <= 100.0 * 0.01 + 1e-12);
+    }
+}
+
+fn planar_geometry() -> Geometry {
+    Geometry::from_config(&common::load_config("letters.toml"), "planar").unwrap()
+}
+
+#[test]
+fn short_fault_campaign_finds_no_violation_in_any_output_mode() {
+    let mut geometries = vec![planar_geometry()];
+    if common::rby1_urdf().is_some() {
+        let cfg = common::load_config("rby1-letters.toml");
+        geometries.push(Geometry::from_config(&cfg, "rby1").unwrap());
+    }
+    let s = StressSettings {
+        episodes: 40,
+        seed: 7,
+        duration_s: 2.0,
+        ..Default::default()
+    };
+    let report = run_campaign(&geometries, &s).unwrap();
+    for (mode, t) in &report.modes {
+        assert_eq!(t.episodes, 40);
+        assert!(t.ticks >= 40 * 150, "{mode:?}: {} ticks", t.ticks);
+        assert!(
+            t.clean(),
+            "{mode:?}: {} position (worst {:.2e}), {} velocity, {} acceleration, {} non-finite; seeds {:?}",
+            t.position,
+            t.position_worst,
+            t.velocity,
+            t.acceleration,
+            t.nonfinite,
+            t.failing_seeds
+        );
+    }
+}
+
+#[test]
+fn the_fault_campaign_catches_a_broken_filter() {
+    let geometries = vec![planar_geometry()];
+    for (defect, modes) in [
+        (FilterDefect::NoHorizon, vec![OutputMode::Velocity]),
+        (FilterDefect::NoPositionBound, vec![OutputMode::Position]),
+        (
+            FilterDefect::NoAccelerationBound,
+            vec![OutputMode::Velocity, OutputMode::Position],
+        ),
+    ] {
+        let s = StressSettings {
+            episodes: 40,
+            seed: 7,
+            duration_s: 2.0,
+            modes,
+            defect,
+        };
+        let report = run_campaign(&geometries, &s).unwrap();
+        for (mode, t) in &report.modes {
+            // Without a position bound, position commands are still clamped into the
+            // limits (defence in depth): the clamp then shows as acceleration jumps.
+            let caught = match (defect, mode) {
+                (FilterDefect::NoAccelerationBound, _) => t.acceleration > 0,
+                (FilterDefect::NoPositionBound, OutputMode::Position) => !t.clean(),
+                _ => t.position > 0,
+            };
+            assert!(caught, "{defect:?} in {mode:?} mode went unnoticed: {t:?}");
         }
     }
 }
@@ -190,7 +438,14 @@ fn jacobian_weighting_keeps_the_end_effector_direction() {
     .unwrap();
     let jac = DMatrix::from_row_slice(1, 2, &[1.0, 1.0]);
     let mut out = vec![0.0; 2];
-    let rep = filter.filter(&[0.0, 0.0], &[1.0, 0.2], Some(&jac), None, &mut out);
+    let rep = filter.filter(
+        0.0,
+        Anchor::Commanded { q: &[0.0, 0.0] },
+        &[1.0, 0.2],
+        Some(&jac),
+        None,
+        &mut out,
+    );
     assert_eq!(rep.status, SafetyStatus::Filtered);
     // W = JᵀJ + εI is nearly singular along (1, −1): the interior-point optimum sits
     // within solver tolerance of the bound.
@@ -224,7 +479,8 @@ fn distance_barrier_slows_approach() {
     let grad = [-1.0, -1.0];
     let mut out = vec![0.0; 2];
     let rep = filter.filter(
-        &[0.0, 0.0],
+        0.0,
+        Anchor::Commanded { q: &[0.0, 0.0] },
         &[0.5, 0.5],
         None,
         Some(Barrier {
@@ -238,7 +494,8 @@ fn distance_barrier_slows_approach() {
     assert!(hdot >= -5.0 * 0.02 - 1e-6, "barrier violated: ḣ = {hdot}");
     // Moving apart is untouched.
     let rep = filter.filter(
-        &[0.0, 0.0],
+        0.01,
+        Anchor::Commanded { q: &[0.0, 0.0] },
         &[-0.5, -0.5],
         None,
         Some(Barrier {

@@ -166,6 +166,97 @@ fn faults_freeze_or_silence() {
     assert!(!silent.measured(&mut out), "silent publishes nothing");
 }
 
+/// `nan_position` and `missing_joint` corrupt the published state for a window while the
+/// robot keeps integrating commands.
+#[test]
+fn sensor_faults_corrupt_a_window_and_keep_integrating() {
+    for kind in [FaultKind::NanPosition, FaultKind::MissingJoint] {
+        let mut h = hw(
+            OutputMode::Velocity,
+            MockHwConfig {
+                fault: Some(kind),
+                fault_after_s: 0.045,
+                fault_duration_s: Some(0.1),
+                fault_joint: Some("left_joint2".into()),
+                ..Default::default()
+            },
+        );
+        h.command(&[1.0; 8]);
+        let (mut names, mut pos) = (Vec::new(), Vec::new());
+        let mut faulty = Vec::new();
+        for i in 0..30 {
+            h.step(0.01);
+            assert!(
+                h.joint_state(&mut names, &mut pos),
+                "{kind:?} still publishes"
+            );
+            assert_eq!(names.len(), pos.len());
+            let bad = match kind {
+                FaultKind::NanPosition => {
+                    assert_eq!(names.len(), 8);
+                    pos[1].is_nan()
+                }
+                _ => {
+                    let missing = !names.iter().any(|n| n == "left_joint2");
+                    assert_eq!(names.len(), if missing { 7 } else { 8 });
+                    missing
+                }
+            };
+            assert!(pos.iter().filter(|x| x.is_nan()).count() <= usize::from(bad));
+            if bad {
+                faulty.push(i);
+            }
+        }
+        // Steps 5..=14 end at t = 0.05 … 0.14 s, inside [0.045, 0.145).
+        assert_eq!(faulty, (4..14).collect::<Vec<_>>(), "{kind:?}");
+        assert_eq!(h.summary().joint_states_faulted, 10);
+        assert_eq!(h.summary().fault_started_s, Some(0.045));
+        assert!(h.faulted().is_none(), "the window closed");
+        assert!(
+            (h.positions()[1] - 0.4).abs() < 1e-9,
+            "integrated throughout"
+        );
+    }
+}
+
+/// With `fault_near_limit`, the fault begins when a joint moves toward a limit close to it
+/// (at >= 25 % of its velocity limit), not before.
+#[test]
+fn fault_near_limit_waits_for_an_approach() {
+    let cfg = MockHwConfig {
+        fault: Some(FaultKind::NanPosition),
+        fault_near_limit: Some(0.5),
+        ..Default::default()
+    };
+    // Planar limits: ±2π rad, 3 rad/s. Joint 8 runs down at 1 rad/s from 0.1 rad; the NaN
+    // goes to the first controlled joint (no `fault_joint`).
+    let mut h = hw(OutputMode::Velocity, cfg.clone());
+    h.command(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0]);
+    let mut out = Vec::new();
+    let mut started = None;
+    for _ in 0..600 {
+        h.step(0.01);
+        h.measured(&mut out);
+        if started.is_none() && out[0].is_nan() {
+            started = Some(h.positions()[7]);
+        }
+    }
+    let q = started.expect("fault started");
+    let lower = -2.0 * std::f64::consts::PI;
+    assert!(q - lower <= 0.5 && q - lower > 0.48, "started at q = {q}");
+    assert_eq!(
+        h.summary().fault_trigger_joint.as_deref(),
+        Some("right_joint4")
+    );
+    // Too slow (0.5 rad/s < 0.75 rad/s): no fault even right at the limit.
+    let mut h = hw(OutputMode::Velocity, cfg);
+    h.command(&[0.5; 8]);
+    for _ in 0..1200 {
+        h.step(0.01);
+    }
+    assert!(h.summary().fault_started_s.is_none() && h.faulted().is_none());
+}
+
 #[test]
 fn noise_has_the_configured_spread() {
     let mut h = hw(
@@ -219,6 +310,28 @@ fn bad_settings_are_refused() {
                 ..Default::default()
             },
             "latency_s",
+        ),
+        (
+            MockHwConfig {
+                fault_duration_s: Some(0.0),
+                ..Default::default()
+            },
+            "fault_duration_s",
+        ),
+        (
+            MockHwConfig {
+                fault_near_limit: Some(-0.1),
+                ..Default::default()
+            },
+            "fault_near_limit",
+        ),
+        (
+            MockHwConfig {
+                fault: Some(FaultKind::NanPosition),
+                fault_joint: Some("torso_joint".into()),
+                ..Default::default()
+            },
+            "fault_joint",
         ),
     ] {
         let e = MockHardware::new(

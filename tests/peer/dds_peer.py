@@ -136,8 +136,11 @@ VEL_LIMIT = 3.0  # rad/s, every controlled joint
 VEL_TOL = 1e-9
 JS_PERIOD = 0.01  # 100 Hz
 STALE_TIMEOUT = 0.1  # s, the node's joint-state stale timeout
-MIN_COMMAND_RATE_HZ = 40.0  # the node ticks at 100 Hz; leave room for a loaded CI machine
-MIN_STATUS_RATE_HZ = 8.0  # the node publishes status at >= 10 Hz
+# No rates or durations are asserted (a loaded CI machine would fail them; speed is measured
+# by the criterion benches): each window waits until it holds this many messages, or until
+# --timeout passes, and then checks the count.
+STEADY_COMMANDS = 150  # the node ticks at 100 Hz: about 1.5 s
+STEADY_STATUSES = 15  # status at 10 Hz: about 1.5 s
 
 # ROS 2 default-ish QoS, XCDR1 only (what RustDDS / ros2-client speak).
 XCDR1 = Policy.DataRepresentation(use_cdrv0_representation=True)
@@ -343,6 +346,17 @@ class Peer:
         with self.lock:
             return [s for s in self.statuses if s[0] >= t0]
 
+    def wait_counts(self, since: float, n_commands: int, n_statuses: int, timeout: float):
+        """Commands and statuses received at or after `since`, once there are at least
+        `n_commands` and `n_statuses` of them or `timeout` has passed (the caller checks the
+        counts)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            cmds, sts = self.commands_since(since), self.statuses_since(since)
+            if (len(cmds) >= n_commands and len(sts) >= n_statuses) or time.monotonic() >= deadline:
+                return cmds, sts
+            time.sleep(0.01)
+
     def first_status(self) -> Optional[Status]:
         with self.lock:
             return self.statuses[0][1] if self.statuses else None
@@ -504,16 +518,11 @@ def scenario_basic(peer: Peer, rep: Report, timeout: float):
     # steady state with fresh joint states
     time.sleep(0.5)
     t0 = time.monotonic()
-    time.sleep(2.0)
-    t1 = time.monotonic()
-    cmds = peer.commands_since(t0)
-    sts = peer.statuses_since(t0)
-    check_commands(rep, "commands: 8 finite entries within ±3 rad/s (2 s window)", cmds)
-    rate = len(cmds) / (t1 - t0)
-    rep.check("commands: rate with fresh joint states", rate >= MIN_COMMAND_RATE_HZ,
-              f"{rate:.1f} Hz (>= {MIN_COMMAND_RATE_HZ:g}, node ticks at 100 Hz)")
-    srate = len(sts) / (t1 - t0)
-    rep.check("status: rate", srate >= MIN_STATUS_RATE_HZ, f"{srate:.1f} Hz (>= {MIN_STATUS_RATE_HZ:g})")
+    cmds, sts = peer.wait_counts(t0, STEADY_COMMANDS, STEADY_STATUSES, timeout)
+    check_commands(rep, f"commands with fresh joint states: >= {STEADY_COMMANDS}, 8 finite entries within "
+                   f"±3 rad/s (within {timeout:g} s)", cmds, STEADY_COMMANDS)
+    rep.check(f"status with fresh joint states: >= {STEADY_STATUSES} (within {timeout:g} s)",
+              len(sts) >= STEADY_STATUSES, f"{len(sts)} statuses")
     if sts:
         codes = sorted({int(s.code) for _, s in sts})
         rep.check("status: code not STALE/INVALID with fresh joint states",
@@ -549,14 +558,15 @@ def scenario_basic(peer: Peer, rep: Report, timeout: float):
     apply_condition(peer, rep, "symmetry_condition (0.5236, 0.8, -1) echoed in status.condition",
                     (0.5236, 0.8, -1), timeout)
     t0 = time.monotonic()
-    time.sleep(1.0)
-    check_commands(rep, "commands under the new condition: valid", peer.commands_since(t0), 10)
+    cmds, _ = peer.wait_counts(t0, 10, 0, timeout)
+    check_commands(rep, "commands under the new condition: valid", cmds, 10)
 
     # extra unknown joint is ignored, not rejected
     before = peer.latest_status()
     peer.set_joint_states(True, extra=True)
     t0 = time.monotonic()
-    time.sleep(0.5)
+    # statuses of ticks that used the extra-joint messages (the first may predate them)
+    cmds, _ = peer.wait_counts(t0, 10, 3, timeout)
     after = peer.latest_status()
     peer.set_joint_states(True, extra=False)
     if before and after:
@@ -564,15 +574,19 @@ def scenario_basic(peer: Peer, rep: Report, timeout: float):
                   after.rejected_joint_states == before.rejected_joint_states
                   and int(after.code) not in (STALE_JOINT_STATES, INVALID_INPUT),
                   f"rejected {before.rejected_joint_states} -> {after.rejected_joint_states}, code {after.code}")
-    check_commands(rep, "commands with the extra joint: valid", peer.commands_since(t0), 10)
+    check_commands(rep, "commands with the extra joint: valid", cmds, 10)
 
     # stale: stop joint states -> zero velocities and STALE_JOINT_STATES
     peer.set_joint_states(False)
-    time.sleep(0.3)
+    t_stop = time.monotonic()
+    st = peer.wait_status(lambda s: int(s.code) == STALE_JOINT_STATES, timeout, t_stop)
+    if st is not None:  # and the next one: commands of earlier, fresh ticks have arrived by then
+        st = peer.wait_status(lambda s: int(s.code) == STALE_JOINT_STATES, timeout, time.monotonic())
+    rep.check("stale joint states: node reports STALE_JOINT_STATES (16)", st is not None,
+              "" if st else f"not within {timeout:g} s")
+    # from then on: every command zero and every status stale
     t0 = time.monotonic()
-    time.sleep(0.7)
-    cmds = peer.commands_since(t0)
-    sts = peer.statuses_since(t0)
+    cmds, sts = peer.wait_counts(t0, 20, 3, timeout)
     rep.check("stale joint states: commands are all zero",
               len(cmds) > 0 and all(len(d) == len(JOINTS) and all(v == 0.0 for v in d) for _, d in cmds),
               f"{len(cmds)} commands, nonzero {sum(1 for _, d in cmds if any(v != 0.0 for v in d))}")
@@ -585,9 +599,9 @@ def scenario_basic(peer: Peer, rep: Report, timeout: float):
     # recovery
     peer.set_joint_states(True)
     t0 = time.monotonic()
-    st = peer.wait_status(lambda s: int(s.code) != STALE_JOINT_STATES, 2.0, t0 + 0.05)
+    st = peer.wait_status(lambda s: int(s.code) != STALE_JOINT_STATES, timeout, t0 + 0.05)
     rep.check("recovery: fresh joint states clear STALE_JOINT_STATES", st is not None,
-              f"code {st.code}" if st else "still stale after 2 s")
+              f"code {st.code}" if st else f"still stale after {timeout:g} s")
 
 
 def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
@@ -609,7 +623,7 @@ def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
         t0 = time.monotonic()
         peer.inject_joint_state(builder, 0.05)  # 5 messages at 100 Hz, shorter than the stale timeout
         st = peer.wait_status(lambda s: s.rejected_joint_states >= base.rejected_joint_states + 1
-                              and s.last_error != "", 3.0, t0)
+                              and s.last_error != "", timeout, t0)
         rep.check(f"joint_states {name}: rejected (counter +1, last_error set)", st is not None,
                   f"rejected_joint_states {base.rejected_joint_states} -> {st.rejected_joint_states}, "
                   f"last_error {st.last_error!r}" if st else
@@ -618,12 +632,11 @@ def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
         rep.note(f"joint_states {name}: INVALID_INPUT {'seen' if seen17 else 'not seen'} in the 50 ms window"
                  " (informational: good messages resume right after)")
         t_good = time.monotonic() + 0.05
-        ok_code = peer.wait_status(lambda s: int(s.code) != INVALID_INPUT, 2.0, t_good)
+        ok_code = peer.wait_status(lambda s: int(s.code) != INVALID_INPUT, timeout, t_good)
         rep.check(f"joint_states {name}: code leaves INVALID_INPUT after good messages", ok_code is not None,
-                  f"code {ok_code.code}" if ok_code else "still INVALID_INPUT after 2 s")
-        time.sleep(0.1)
-        check_commands(rep, f"joint_states {name}: commands continue, finite, within limits",
-                       peer.commands_since(t0), 5)
+                  f"code {ok_code.code}" if ok_code else f"still INVALID_INPUT after {timeout:g} s")
+        cmds, _ = peer.wait_counts(t0, 5, 0, timeout)
+        check_commands(rep, f"joint_states {name}: commands continue, finite, within limits", cmds, 5)
 
     # ---- bad conditions ----
     for name, cond in BAD_CONDITIONS:
@@ -631,7 +644,7 @@ def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
         t0 = time.monotonic()
         peer.publish_condition(make_condition(*cond))
         st = peer.wait_status(lambda s: s.rejected_conditions >= base.rejected_conditions + 1
-                              and s.last_error != "", 3.0, t0)
+                              and s.last_error != "", timeout, t0)
         rep.check(f"symmetry_condition {name}: rejected (counter +1, last_error set)", st is not None,
                   f"rejected_conditions {base.rejected_conditions} -> {st.rejected_conditions}, "
                   f"last_error {st.last_error!r}" if st else
@@ -640,7 +653,7 @@ def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
             rep.check(f"symmetry_condition {name}: last_error names the trained range",
                       "scale outside the policy's trained range" in st.last_error, repr(st.last_error))
         if st is not None:
-            st17 = peer.wait_status(lambda s: int(s.code) == INVALID_INPUT, 1.0, t0)
+            st17 = peer.wait_status(lambda s: int(s.code) == INVALID_INPUT, timeout, t0)
             rep.check(f"symmetry_condition {name}: code INVALID_INPUT while it is the latest",
                       st17 is not None, "" if st17 else f"codes seen "
                       f"{sorted({int(s.code) for _, s in peer.statuses_since(t0)})}")
@@ -648,22 +661,23 @@ def scenario_bad_input(peer: Peer, rep: Report, timeout: float):
             last = peer.latest_status()
             rep.check(f"symmetry_condition {name}: previous condition kept",
                       cond_matches(last.condition, *current), f"status.condition {fmt_cond(last.condition)}")
-        check_commands(rep, f"symmetry_condition {name}: commands continue, finite, within limits",
-                       peer.commands_since(t0), 5)
+        cmds, _ = peer.wait_counts(t0, 5, 0, timeout)
+        check_commands(rep, f"symmetry_condition {name}: commands continue, finite, within limits", cmds, 5)
         good_idx[0] += 1
         current = goods[good_idx[0] % len(goods)]
         t_good = time.monotonic()
         apply_condition(peer, rep, f"symmetry_condition {name}: next good condition {current} accepted",
                         current, timeout)
-        ok_code = peer.wait_status(lambda s: int(s.code) != INVALID_INPUT, 2.0, t_good)
+        ok_code = peer.wait_status(lambda s: int(s.code) != INVALID_INPUT, timeout, t_good)
         rep.check(f"symmetry_condition {name}: code leaves INVALID_INPUT after a good condition",
-                  ok_code is not None, f"code {ok_code.code}" if ok_code else "still INVALID_INPUT after 2 s")
+                  ok_code is not None,
+                  f"code {ok_code.code}" if ok_code else f"still INVALID_INPUT after {timeout:g} s")
 
     # ---- afterwards ----
     apply_condition(peer, rep, "final good condition (0.5236, 0.8, -1) accepted", (0.5236, 0.8, -1), timeout)
     t0 = time.monotonic()
-    time.sleep(1.0)
-    check_commands(rep, "commands after all bad input: valid", peer.commands_since(t0), 10)
+    cmds, _ = peer.wait_counts(t0, 10, 0, timeout)
+    check_commands(rep, "commands after all bad input: valid", cmds, 10)
     last, first = peer.latest_status(), peer.first_status()
     d_js = last.rejected_joint_states - first.rejected_joint_states
     d_c = last.rejected_conditions - first.rejected_conditions

@@ -1,0 +1,155 @@
+//! `crossym stress`: the fault campaign of [`crossym::sim::stress`] — randomized closed-loop
+//! episodes of the node core and a simulated robot, with a table of limit violations.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context;
+use crossym::config::Config;
+use crossym::ros::OutputMode;
+use crossym::safety::FilterDefect;
+use crossym::sim::stress::{report_table, run_campaign, Geometry, StressSettings};
+
+/// Options of `crossym stress`.
+#[derive(Debug, clap::Args)]
+pub struct StressArgs {
+    /// Config files (TOML with [robot] and [node] policy), repeatable; each is a geometry the
+    /// episodes draw from. Default: config/letters.toml, plus config/rby1-letters.toml when
+    /// its RB-Y1 URDF is found.
+    #[arg(long, short)]
+    pub config: Vec<PathBuf>,
+    /// Episodes per output mode.
+    #[arg(long, default_value_t = 1000)]
+    pub episodes: usize,
+    /// Campaign seed (every episode is reproducible from it).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output modes, comma-separated (velocity, position, trajectory).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "velocity,position,trajectory"
+    )]
+    pub modes: Vec<String>,
+    /// Simulated time per episode (s).
+    #[arg(long, default_value_t = 3.0)]
+    pub duration_s: f64,
+    /// Break the safety filter on purpose to see the campaign catch it: no-horizon,
+    /// no-position-bound or no-acceleration-bound.
+    #[arg(long = "break")]
+    pub defect: Option<String>,
+    /// Re-run only the episode of this seed (as listed under "episodes with a violation")
+    /// in the first of --modes, printing each violation.
+    #[arg(long)]
+    pub episode: Option<u64>,
+    /// Also write the table (Markdown) here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `crossym stress`. Exits 1 when any episode violated a limit or published a non-finite value.
+pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
+    let mut geometries = Vec::new();
+    if a.config.is_empty() {
+        let planar = Config::from_file("config/letters.toml")?;
+        geometries.push(Geometry::from_config(&planar, "planar").map_err(anyhow::Error::msg)?);
+        match Config::from_file("config/rby1-letters.toml")
+            .map_err(|e| e.to_string())
+            .and_then(|c| Geometry::from_config(&c, "rby1"))
+        {
+            Ok(g) => geometries.push(g),
+            Err(e) => eprintln!("stress: RB-Y1 geometry left out ({e})"),
+        }
+    } else {
+        for p in &a.config {
+            let cfg = Config::from_file(p)?;
+            let name = p
+                .file_stem()
+                .map_or("robot".into(), |s| s.to_string_lossy().into_owned());
+            geometries.push(
+                Geometry::from_config(&cfg, &name)
+                    .map_err(anyhow::Error::msg)
+                    .with_context(|| format!("{}", p.display()))?,
+            );
+        }
+    }
+    let modes = a
+        .modes
+        .iter()
+        .map(|m| match m.as_str() {
+            "velocity" => Ok(OutputMode::Velocity),
+            "position" => Ok(OutputMode::Position),
+            "trajectory" => Ok(OutputMode::Trajectory),
+            o => Err(anyhow::anyhow!(
+                "--modes: `{o}` is not velocity, position or trajectory"
+            )),
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let defect = match a.defect.as_deref() {
+        None => FilterDefect::None,
+        Some("no-horizon") => FilterDefect::NoHorizon,
+        Some("no-position-bound") => FilterDefect::NoPositionBound,
+        Some("no-acceleration-bound") => FilterDefect::NoAccelerationBound,
+        Some(o) => anyhow::bail!(
+            "--break: `{o}` is not no-horizon, no-position-bound or no-acceleration-bound"
+        ),
+    };
+    if !(a.duration_s.is_finite() && a.duration_s > 0.0) {
+        anyhow::bail!("--duration-s must be positive");
+    }
+    let settings = StressSettings {
+        episodes: a.episodes,
+        seed: a.seed,
+        modes,
+        duration_s: a.duration_s,
+        defect,
+    };
+    if let Some(seed) = a.episode {
+        std::env::set_var("CROSSYM_STRESS_TRACE", "1");
+        let t = crossym::sim::stress::run_episode(
+            &geometries,
+            settings.modes[0],
+            seed,
+            a.duration_s,
+            defect,
+        )
+        .map_err(anyhow::Error::msg)?;
+        println!("{t:?}");
+        return Ok(if t.clean() {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::from(1)
+        });
+    }
+    let names: Vec<&str> = geometries.iter().map(|g| g.name.as_str()).collect();
+    println!(
+        "stress: {} episodes per mode, seed {}, {} s each, geometries {}{}",
+        a.episodes,
+        a.seed,
+        a.duration_s,
+        names.join(", "),
+        if defect == FilterDefect::None {
+            String::new()
+        } else {
+            format!(", DELIBERATELY BROKEN FILTER ({defect:?})")
+        }
+    );
+    let t0 = Instant::now();
+    let report = run_campaign(&geometries, &settings).map_err(anyhow::Error::msg)?;
+    let table = report_table(&report);
+    println!("{table}");
+    println!("run time {:.1} s", t0.elapsed().as_secs_f64());
+    if let Some(out) = &a.out {
+        if let Some(d) = out.parent() {
+            std::fs::create_dir_all(d).ok();
+        }
+        std::fs::write(out, &table).with_context(|| format!("writing {}", out.display()))?;
+    }
+    Ok(if report.clean() {
+        ExitCode::SUCCESS
+    } else {
+        println!("stress: VIOLATIONS found");
+        ExitCode::from(1)
+    })
+}
