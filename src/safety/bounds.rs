@@ -264,8 +264,11 @@ mod tests {
             recent_max: 0.5,
             recent_min: 0.5,
         };
-        let fresh = joint_bounds(&lim(), 5.0, 0.0, 0.9, 0.5, 0.01, 0.01, &Horizon::NOW);
-        let old = joint_bounds(&lim(), 5.0, 0.0, 0.9, 0.5, 0.01, 0.01, &h);
-        assert!(old.hi < fresh.hi);
+        let fresh = upper_position_bound(0.1, 10.0, 0.01, &Horizon::NOW);
+        let old = upper_position_bound(0.1, 10.0, 0.01, &h);
+        assert!(old < fresh - 0.1, "{old} vs {fresh}");
+        // Near the limit the old state forces the joint to brake at a_max.
+        let b = joint_bounds(&lim(), 5.0, 0.0, 0.99, 0.5, 0.01, 0.01, &h);
+        assert!(b.braking_saturated && (b.hi - 0.4).abs() < 1e-12);
     }
 }
