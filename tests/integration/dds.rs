@@ -8,7 +8,7 @@
 //! messages or the awaited event arrived ([`Watch`]), then assert counts.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use crossym::config::Config;
@@ -22,6 +22,7 @@ use crossym::sim::MockHwSummary;
 use crossym::symmetry::compose::Condition;
 
 use crate::common;
+use crate::common::Proc;
 
 fn exe() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_crossym"))
@@ -31,61 +32,11 @@ fn letters_config() -> PathBuf {
     common::root().join("config/letters.toml")
 }
 
-/// A child process killed on drop; `term` sends SIGTERM and returns the exit code.
-struct Proc {
-    child: Option<Child>,
-    name: String,
-}
-
-impl Proc {
-    fn spawn(name: &str, args: &[&str], domain: u16, log: &Path) -> Proc {
-        let f = std::fs::File::create(log).unwrap();
-        let child = Command::new(exe())
-            .args(args)
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("ROS_LOCALHOST_ONLY", "1")
-            .env("ROS_DISTRO", "humble")
-            .stdout(Stdio::from(f.try_clone().unwrap()))
-            .stderr(Stdio::from(f))
-            .spawn()
-            .unwrap_or_else(|e| panic!("starting {name}: {e}"));
-        Proc {
-            child: Some(child),
-            name: name.into(),
-        }
-    }
-
-    fn term(&mut self) -> i32 {
-        let mut c = self.child.take().expect("running");
-        assert!(
-            c.try_wait().unwrap().is_none(),
-            "{} exited before SIGTERM",
-            self.name
-        );
-        let ok = Command::new("kill")
-            .args(["-TERM", &c.id().to_string()])
-            .status()
-            .unwrap()
-            .success();
-        assert!(ok, "kill -TERM {}", self.name);
-        for _ in 0..150 {
-            if let Some(s) = c.try_wait().unwrap() {
-                return s.code().unwrap_or(-1);
-            }
-            std::thread::sleep(Duration::from_millis(100));
-        }
-        let _ = c.kill();
-        panic!("{} did not stop within 15 s of SIGTERM", self.name);
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
+/// `crossym ARGS` as a [`Proc`] logging to `log`.
+fn spawn(name: &str, args: &[&str], domain: u16, log: &Path) -> Proc {
+    let mut c = Command::new(exe());
+    c.args(args);
+    Proc::spawn(c, name, domain, log)
 }
 
 /// A DDS observer in the test process: the node's status and the joint states, so a test
@@ -281,7 +232,7 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
     let summary = dir.join("mock.json");
     let cfg_s = cfg_path.to_str().unwrap();
     let (hw_log, node_log) = (dir.join("mock.log"), dir.join("node.log"));
-    let mut hw = Proc::spawn(
+    let mut hw = spawn(
         "mock-hw",
         &[
             "mock-hw",
@@ -297,7 +248,7 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
     );
     let bag_dir = dir.join("bag");
     let _ = std::fs::remove_dir_all(&bag_dir);
-    let mut node = Proc::spawn(
+    let mut node = spawn(
         "node",
         &[
             "node",
@@ -451,7 +402,7 @@ fn independent_cyclonedds_peer() {
     let dir = tmp_dir("peer");
     let domain = 63u16;
     let node_log = dir.join("node.log");
-    let mut node = Proc::spawn(
+    let mut node = spawn(
         "node",
         &["node", "--config", letters_config().to_str().unwrap()],
         domain,
@@ -569,7 +520,7 @@ fn live_replay_feeds_a_node() {
     let bag_dir = dir.join("bag");
     let _ = std::fs::remove_dir_all(&bag_dir);
     let node_log = dir.join("node.log");
-    let mut node = Proc::spawn(
+    let mut node = spawn(
         "node",
         &[
             "node",
@@ -664,13 +615,13 @@ fn standalone_recorder_over_dds() {
     let domain = 65u16;
     let cfg_s = letters_config();
     let c = cfg_s.to_str().unwrap();
-    let mut hw = Proc::spawn(
+    let mut hw = spawn(
         "mock-hw",
         &["mock-hw", "--config", c],
         domain,
         &dir.join("hw.log"),
     );
-    let mut node = Proc::spawn(
+    let mut node = spawn(
         "node",
         &["node", "--config", c],
         domain,

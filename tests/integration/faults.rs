@@ -12,8 +12,8 @@
 //! inside `../shared/tools/netns-run` (as `.ci/run` does); each run has its own
 //! ROS_DOMAIN_ID (81–84), so the tests may run in parallel with the others.
 
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crossym::config::Config;
@@ -21,94 +21,12 @@ use crossym::sim::MockHwSummary;
 use serde_json::Value;
 
 use crate::common;
+use crate::common::{log_tail, Proc};
 
 /// Half-width of the tightened position range around the rest posture (rad).
 const HALF_RANGE: f64 = 0.35;
 /// Tightened velocity limit (rad/s).
 const VELOCITY: f64 = 0.4;
-
-/// A child process killed on drop; `term` sends SIGTERM and returns the exit code.
-struct Proc {
-    child: Option<Child>,
-    name: String,
-}
-
-impl Proc {
-    fn spawn(mut cmd: Command, name: &str, domain: u16, log: &Path) -> Proc {
-        let f = std::fs::File::create(log).unwrap();
-        let child = cmd
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("ROS_LOCALHOST_ONLY", "1")
-            .env("ROS_DISTRO", "humble")
-            .stdout(Stdio::from(f.try_clone().unwrap()))
-            .stderr(Stdio::from(f))
-            .spawn()
-            .unwrap_or_else(|e| panic!("starting {name}: {e}"));
-        Proc {
-            child: Some(child),
-            name: name.into(),
-        }
-    }
-
-    /// Waits up to `limit` for the process to exit by itself; its exit code, or a panic.
-    fn wait(&mut self, limit: Duration, log: &Path) -> i32 {
-        let mut c = self.child.take().expect("running");
-        let t0 = Instant::now();
-        loop {
-            if let Some(s) = c.try_wait().unwrap() {
-                return s.code().unwrap_or(-1);
-            }
-            if t0.elapsed() > limit {
-                let _ = c.kill();
-                let _ = c.wait();
-                panic!(
-                    "{} did not finish within {limit:?}\n{}",
-                    self.name,
-                    log_tail(log)
-                );
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
-    fn term(&mut self) -> i32 {
-        let mut c = self.child.take().expect("running");
-        assert!(
-            c.try_wait().unwrap().is_none(),
-            "{} exited before SIGTERM",
-            self.name
-        );
-        let ok = Command::new("kill")
-            .args(["-TERM", &c.id().to_string()])
-            .status()
-            .unwrap()
-            .success();
-        assert!(ok, "kill -TERM {}", self.name);
-        for _ in 0..150 {
-            if let Some(s) = c.try_wait().unwrap() {
-                return s.code().unwrap_or(-1);
-            }
-            std::thread::sleep(Duration::from_millis(100));
-        }
-        let _ = c.kill();
-        panic!("{} did not stop within 15 s of SIGTERM", self.name);
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Some(mut c) = self.child.take() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
-
-fn log_tail(p: &Path) -> String {
-    let s = std::fs::read_to_string(p).unwrap_or_default();
-    let lines: Vec<&str> = s.lines().collect();
-    lines[lines.len().saturating_sub(30)..].join("\n")
-}
 
 fn crossym_cmd(args: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_crossym"));

@@ -792,3 +792,33 @@ fn demo_refuses_a_condition_the_policy_was_not_trained_on() {
     );
     assert!(!out_dir.exists(), "nothing written");
 }
+
+#[test]
+fn a_nonfinite_policy_output_is_reported_and_never_published() {
+    for mode in [OutputMode::Velocity, OutputMode::Position] {
+        let mut core = node(mode, None);
+        core.set_policy_override(Some(Box::new(|tick, _q, v| {
+            v[0] = f64::NAN;
+            v[1] = if tick % 2 == 0 { f64::INFINITY } else { -1e300 };
+        })));
+        let mut cmd = core.command();
+        let q = Q0.to_vec();
+        for k in 1..=20 {
+            let t = k as f64 * 0.01;
+            core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
+            let r = core.tick(t, &mut cmd);
+            assert_eq!(r.code, StatusCode::PolicyNonfinite, "{mode:?} tick {k}");
+            assert!(r.publish);
+            assert!(cmd.data().iter().all(|x| x.is_finite()), "{:?}", cmd.data());
+            let l = &core.limits()[0];
+            assert!(cmd.velocities[0].abs() <= l.velocity);
+        }
+        assert_eq!(core.status().code, StatusCode::PolicyNonfinite);
+        assert_eq!(
+            core.status()
+                .to_msg(Default::default(), core.joint_names())
+                .code,
+            StatusCode::PolicyNonfinite.value()
+        );
+    }
+}
