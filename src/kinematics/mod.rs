@@ -7,6 +7,7 @@
 //! - [`model`]: the immutable URDF tree ([`RobotModel`]).
 //! - [`chain`]: one serial chain, FK and 6 × n geometric Jacobian ([`Chain`]).
 //! - [`robot`]: several chains stacked as `Q = ∏ Q_i`, `X = ∏ X_i` ([`Kinematics`]).
+//! - [`tree`]: every link pose of a URDF subtree at once ([`LinkTree`]).
 //! - [`pinv`]: `J⁺ = M⁻¹Jᵀ(J M⁻¹Jᵀ + λ²I)⁻¹`, nullspace projector, manipulability.
 //!
 //! Per-tick functions take caller-owned workspaces and allocate nothing.
@@ -16,16 +17,18 @@ pub mod error;
 pub mod model;
 pub mod pinv;
 pub mod robot;
+pub mod tree;
 
 pub use chain::{
     Chain, ChainFactors, ChainSpec, ChainWorkspace, JointFactor, RigidFactor, TaskSpace, ToolOffset,
 };
 pub use error::KinematicsError;
-pub use model::{JointKind, JointLimits, JointModel, RobotModel};
+pub use model::{JointKind, JointLimits, JointModel, Mimic, RobotModel};
 pub use pinv::{
     condition_number, DampedPinv, JacobianBlock, Metric, PinvReport, PinvStatus, PinvWorkspace,
 };
 pub use robot::{Kinematics, KinematicsSettings, KinematicsWorkspace};
+pub use tree::{LinkTree, LinkTreeWorkspace, TreeLink};
 
 /// The vendor RB-Y1 URDF beside the crate (`../shared`), or `None` with a printed reason
 /// (unit tests only; integration tests have their own fixture).

@@ -88,6 +88,19 @@ pub struct JointModel {
     pub axis: Unit<Vector3<f64>>,
     /// Position/velocity/effort/acceleration limits.
     pub limits: JointLimits,
+    /// URDF `<mimic>`: the joint follows another and is not an independent DoF.
+    pub mimic: Option<Mimic>,
+}
+
+/// A mimic joint's relation to its leader: `q = multiplier · q_leader + offset`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mimic {
+    /// Name of the leader joint.
+    pub leader: String,
+    /// Multiplier (dimensionless; 1 when absent).
+    pub multiplier: f64,
+    /// Offset (rad or m; 0 when absent).
+    pub offset: f64,
 }
 
 impl JointModel {
@@ -259,6 +272,11 @@ impl RobotModel {
                 origin: pose,
                 axis,
                 limits,
+                mimic: j.mimic.as_ref().map(|m| Mimic {
+                    leader: m.joint.clone(),
+                    multiplier: m.multiplier.unwrap_or(1.0),
+                    offset: m.offset.unwrap_or(0.0),
+                }),
             });
         }
         let model = Self {

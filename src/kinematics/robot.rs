@@ -7,6 +7,7 @@
 //! over the whole of `Q`, so a non-block-diagonal `M` couples the arms.
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -57,6 +58,8 @@ pub struct Kinematics {
     n: usize,
     m: usize,
     pinv: DampedPinv,
+    source: Arc<RobotModel>,
+    held: HashMap<String, f64>,
 }
 
 /// Caller-owned scratch for [`Kinematics`]; create once with [`Kinematics::workspace`].
@@ -154,7 +157,19 @@ impl Kinematics {
             n,
             m,
             pinv,
+            source: Arc::new(model.clone()),
+            held: held.clone(),
         })
+    }
+
+    /// The URDF tree the chains were built from (whole-body derivations use it).
+    pub fn model(&self) -> &RobotModel {
+        &self.source
+    }
+
+    /// Movable joints outside the chains held at these values (rad or m).
+    pub fn held(&self) -> &HashMap<String, f64> {
+        &self.held
     }
 
     /// Joint-space dimension `n = dim Q`.
