@@ -1,6 +1,8 @@
 //! Lifting one configuration by θ = 30° (the lifted SO(2) flow, eq. 18) on the planar dual
 //! arm and on RB-Y1, with and without the velocity differential, and one `crossym check`
-//! of the letter task. Run: `cargo bench --bench symmetry`.
+//! of the letter task; the whole-body morphological group of real robots' URDFs (PyPI
+//! `example-robot-data`, skipped when absent) against the two-chain derivation on RB-Y1.
+//! Run: `cargo bench --bench symmetry`.
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -116,5 +118,126 @@ fn bench_lift(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_lift);
+/// The `robots` directory of PyPI `example-robot-data`, when installed.
+fn example_robots() -> Option<PathBuf> {
+    let out = std::process::Command::new("python3")
+        .args([
+            "-c",
+            "import sysconfig; print(sysconfig.get_paths()['purelib'])",
+        ])
+        .output()
+        .ok()?;
+    let d = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim())
+        .join("cmeel.prefix/share/example-robot-data/robots");
+    d.is_dir().then_some(d)
+}
+
+/// Times `n` single calls of `f` and prints median, p99 and max (ms): the tails criterion's
+/// per-sample means hide.
+fn tails(label: &str, n: usize, mut f: impl FnMut()) {
+    let mut t: Vec<f64> = (0..n)
+        .map(|_| {
+            let s = std::time::Instant::now();
+            f();
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    let q = |p: f64| t[((p * (n - 1) as f64).round() as usize).min(n - 1)];
+    eprintln!(
+        "morpho/{label}: single calls median {:.3} ms, p99 {:.3} ms, max {:.3} ms over {n}",
+        q(0.5),
+        q(0.99),
+        t[n - 1]
+    );
+}
+
+fn bench_morpho(c: &mut Criterion) {
+    use crossym::kinematics::RobotModel;
+    use crossym::symmetry::transfer::morpho::{
+        derive_body_symmetries, derive_morphological, BodySettings, MorphoSettings,
+    };
+    use std::collections::HashMap;
+    let mut g = c.benchmark_group("morpho");
+    g.sample_size(20)
+        .measurement_time(std::time::Duration::from_secs(3))
+        .warm_up_time(std::time::Duration::from_secs(1));
+    let shared = root().join("../shared/robots/rby1a/model.urdf");
+    if shared.exists() {
+        // Reference: today's two-chain derivation on RB-Y1's arms (256 samples per direction),
+        // then the whole tree (28 joints, 64 samples per element).
+        let cfg = Config::from_file(root().join("config/rby1.toml")).unwrap();
+        let robot = cfg.load_robot().unwrap();
+        let two = || {
+            derive_morphological(
+                &robot.kinematics,
+                0,
+                1,
+                nalgebra::Vector3::y(),
+                &MorphoSettings::default(),
+            )
+            .unwrap()
+        };
+        g.bench_function("rby1/two_chains", |b| b.iter(two));
+        tails("rby1/two_chains", 500, || {
+            black_box(two());
+        });
+        let model = RobotModel::from_urdf_file(&shared).unwrap();
+        let whole = || {
+            derive_body_symmetries(
+                &model,
+                None,
+                None,
+                &HashMap::new(),
+                &BodySettings::default(),
+            )
+            .unwrap()
+        };
+        g.bench_function("rby1/whole_body", |b| b.iter(whole));
+        tails("rby1/whole_body", 500, || {
+            black_box(whole());
+        });
+    } else {
+        eprintln!("morpho: ../shared absent, RB-Y1 left out");
+    }
+    let Some(dir) = example_robots() else {
+        eprintln!("morpho: example-robot-data absent (bash tests/robots/install.sh)");
+        g.finish();
+        return;
+    };
+    for (name, urdf, tol) in [
+        ("solo12", "solo_description/robots/solo12.urdf", 1e-4),
+        ("g1", "g1_description/urdf/g1_29dof_rev_1_0.urdf", 1e-4),
+        ("talos", "talos_data/robots/talos_full_v2.urdf", 1e-4),
+        // The largest: 101 joints, mirrored to 3 mm only.
+        (
+            "tiago_dual",
+            "tiago_description/robots/tiago_dual.urdf",
+            2.3e-3,
+        ),
+    ] {
+        let model = RobotModel::from_urdf_file(dir.join(urdf)).unwrap();
+        let settings = BodySettings {
+            position_tolerance: tol,
+            axis_tolerance: tol,
+            residual_tolerance: tol,
+            ..BodySettings::default()
+        };
+        let out = derive_body_symmetries(&model, None, None, &HashMap::new(), &settings).unwrap();
+        eprintln!(
+            "morpho/{name}: {} of order {}",
+            out.group,
+            out.elements.len()
+        );
+        let run =
+            || derive_body_symmetries(&model, None, None, &HashMap::new(), &settings).unwrap();
+        g.bench_function(name, |b| b.iter(run));
+        tails(name, 500, || {
+            black_box(run());
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench_lift, bench_morpho);
 criterion_main!(benches);

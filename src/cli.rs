@@ -14,6 +14,7 @@ mod density;
 mod rollout;
 mod ros;
 mod stress;
+mod symmetries;
 
 /// Cross-space symmetry compositions for robot policies.
 #[derive(Debug, Parser)]
@@ -82,6 +83,10 @@ enum Command {
     /// robot (input faults, latency, adversarial policies, tight limits); a table of limit
     /// violations. Exits 1 on any violation or non-finite command.
     Stress(stress::StressArgs),
+    /// Morphological symmetry group of a robot from its URDF: every reflection plane through
+    /// the base that maps the kinematic tree onto itself, the group they generate (C2, K4,
+    /// …), each element's signed joint permutation; written as TOML and MorphoSymm YAML.
+    Symmetries(symmetries::SymmetriesArgs),
     /// The augmentation-density experiment: π_R trained per rotation step Δθ, RMSE against
     /// the test rotation θ (CSV, Markdown and a PNG of the curves).
     Density(density::DensityArgs),
@@ -191,6 +196,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Density(a) => density::density(&a),
         Command::Rollout(a) => rollout::rollout_cmd(&a),
         Command::Stress(a) => stress::stress(&a),
+        Command::Symmetries(a) => symmetries::symmetries(&a),
         Command::Node {
             config,
             overrides,

@@ -27,7 +27,9 @@ use super::task_induced::{TaskInducedSettings, TaskInducedSymmetry};
 use super::transfer::descend::{descend, DescendSettings};
 use super::transfer::flow::FlowSettings;
 use super::transfer::lift::{bracket_condition, periodicity_drift, LiftedAction, LiftedField};
-use super::transfer::morpho::{derive_morphological, MorphoSettings};
+use super::transfer::morpho::{
+    derive_body_symmetries, derive_morphological, BodySettings, MorphoSettings,
+};
 use crate::kinematics::{Kinematics, PinvStatus};
 
 /// A symmetry built from configuration, in the space where it is composed.
@@ -269,6 +271,78 @@ fn basis(action: &dyn TaskGroupAction, k: usize) -> Box<dyn VectorField + '_> {
     action.generator_field(&xi)
 }
 
+/// `ρ_Q` on the controlled joints of `kin` from the whole tree below the chains' common base,
+/// across the plane with `normal`, and notes for the report.
+fn whole_body_reflection(
+    kin: &Kinematics,
+    normal: [f64; 3],
+) -> Result<(SignedPermutation, Vec<String>), String> {
+    let chains = kin.chains();
+    let base = &chains[0].base;
+    if let Some(c) = chains.iter().find(|c| &c.base != base) {
+        return Err(format!(
+            "`whole_body` needs chains with one base: `{}` starts at `{}`, `{}` at `{}`",
+            chains[0].name, base, c.name, c.base
+        ));
+    }
+    let settings = BodySettings {
+        planes: Some(vec![Vector3::from(normal)]),
+        ..BodySettings::default()
+    };
+    let g = derive_body_symmetries(
+        kin.model(),
+        Some(base),
+        Some(kin.joint_names()),
+        kin.held(),
+        &settings,
+    )
+    .map_err(|e| e.to_string())?;
+    let Some(r) = g.reflections().first() else {
+        let why = g
+            .rejected
+            .first()
+            .map_or("no reason recorded".to_string(), |r| r.reason.clone());
+        return Err(format!(
+            "the plane with normal {normal:?} through `{base}` is not a symmetry of the tree: {why}"
+        ));
+    };
+    let names = kin.joint_names();
+    let own: Vec<String> = (0..names.len())
+        .filter(|&i| r.rho_q.perm[i] == i)
+        .map(|i| {
+            format!(
+                "{}{}",
+                if r.rho_q.signs[i] < 0.0 { "−" } else { "+" },
+                names[i]
+            )
+        })
+        .collect();
+    let mut notes = vec![format!(
+        "ρ_Q derived from the whole tree below `{base}` ({} links mirrored, residual {:.1e} of {:.2} m)",
+        r.link_pairs.len(),
+        r.relative_residual,
+        g.size
+    )];
+    // Two chains swapped joint by joint: the P of eq. 4 / Example 1.
+    if let [a, b] = chains {
+        let (oa, ob) = (kin.q_offset(0), kin.q_offset(1));
+        if a.dof() == b.dof() && (0..a.dof()).all(|i| r.rho_q.perm[oa + i] == ob + i) {
+            let p: Vec<i32> = (0..a.dof()).map(|i| r.rho_q.signs[oa + i] as i32).collect();
+            notes.push(format!("P = diag{p:?}"));
+        }
+    }
+    if !own.is_empty() {
+        notes.push(format!("joints on the plane: {}", own.join(", ")));
+    }
+    if !r.limit_mismatches.is_empty() {
+        notes.push(format!(
+            "{} joint-limit pairs do not map consistently",
+            r.limit_mismatches.len()
+        ));
+    }
+    Ok((r.rho_q.clone(), notes))
+}
+
 /// Builds every configured symmetry for `kin`, deriving morphological ones from the URDF.
 pub fn build(
     kin: &Kinematics,
@@ -286,60 +360,74 @@ pub fn build(
                 chains: pair,
                 plane_normal,
                 signs,
+                whole_body,
             } => {
-                let idx = |name: &str| {
-                    chains
-                        .iter()
-                        .position(|c| c.name == name)
-                        .ok_or_else(|| sym_err(&s.name, format!("no chain `{name}`")))
-                };
-                let (a, b) = match pair {
-                    Some([x, y]) => (idx(x)?, idx(y)?),
-                    None if chains.len() >= 2 => (0, 1),
-                    None => return Err(sym_err(&s.name, "needs two chains")),
-                };
-                if chains.len() != 2 || (a, b) != (0, 1) {
-                    return Err(sym_err(
-                        &s.name,
-                        "only the swap of a two-chain robot (chains in order) is supported",
-                    ));
-                }
-                if chains[0].dof() != chains[1].dof() {
-                    return Err(sym_err(
-                        &s.name,
-                        "the two chains have different numbers of joints",
-                    ));
-                }
-                let mut notes = Vec::new();
-                let rho_q = if let Some(p) = signs {
-                    if p.len() != chains[0].dof() || p.iter().any(|v| *v != 1.0 && *v != -1.0) {
+                let (rho_q, mut notes) = if *whole_body {
+                    if pair.is_some() || signs.is_some() {
                         return Err(sym_err(
                             &s.name,
-                            format!("signs must be {} values of ±1", chains[0].dof()),
+                            "`whole_body` derives ρ_Q on every controlled joint: drop `chains` and `signs`",
                         ));
                     }
-                    notes.push(format!(
-                        "P = diag{:?} (given)",
-                        p.iter().map(|v| *v as i32).collect::<Vec<_>>()
-                    ));
-                    SignedPermutation::block_swap(p)
+                    whole_body_reflection(kin, plane_normal.unwrap_or([0.0, 1.0, 0.0]))
+                        .map_err(|e| sym_err(&s.name, e))?
                 } else {
-                    let n = Vector3::from(plane_normal.unwrap_or([0.0, 1.0, 0.0]));
-                    let rep = derive_morphological(kin, a, b, n, &MorphoSettings::default())
-                        .map_err(|e| sym_err(&s.name, e.to_string()))?;
-                    notes.push(format!(
-                        "P = diag{:?} derived from the URDF ({:?}, residual {:.1e})",
-                        rep.p_signs.iter().map(|v| *v as i32).collect::<Vec<_>>(),
-                        rep.status,
-                        rep.max_residual
-                    ));
-                    if !rep.limit_mismatches.is_empty() {
-                        notes.push(format!(
-                            "{} joint-limit pairs do not map consistently under P",
-                            rep.limit_mismatches.len()
+                    let idx = |name: &str| {
+                        chains
+                            .iter()
+                            .position(|c| c.name == name)
+                            .ok_or_else(|| sym_err(&s.name, format!("no chain `{name}`")))
+                    };
+                    let (a, b) = match pair {
+                        Some([x, y]) => (idx(x)?, idx(y)?),
+                        None if chains.len() >= 2 => (0, 1),
+                        None => return Err(sym_err(&s.name, "needs two chains")),
+                    };
+                    if chains.len() != 2 || (a, b) != (0, 1) {
+                        return Err(sym_err(
+                            &s.name,
+                            "only the swap of a two-chain robot (chains in order) is supported",
                         ));
                     }
-                    rep.rho_q.clone()
+                    if chains[0].dof() != chains[1].dof() {
+                        return Err(sym_err(
+                            &s.name,
+                            "the two chains have different numbers of joints",
+                        ));
+                    }
+                    let mut notes = Vec::new();
+                    let rho_q = if let Some(p) = signs {
+                        if p.len() != chains[0].dof() || p.iter().any(|v| *v != 1.0 && *v != -1.0) {
+                            return Err(sym_err(
+                                &s.name,
+                                format!("signs must be {} values of ±1", chains[0].dof()),
+                            ));
+                        }
+                        notes.push(format!(
+                            "P = diag{:?} (given)",
+                            p.iter().map(|v| *v as i32).collect::<Vec<_>>()
+                        ));
+                        SignedPermutation::block_swap(p)
+                    } else {
+                        let n = Vector3::from(plane_normal.unwrap_or([0.0, 1.0, 0.0]));
+                        let rep = derive_morphological(kin, a, b, n, &MorphoSettings::default())
+                            .map_err(|e| sym_err(&s.name, e.to_string()))?;
+                        notes.push(format!(
+                            "P = diag{:?} derived from the URDF ({:?}, residual {:.1e} m, {:.1e} of the chains' size)",
+                            rep.p_signs.iter().map(|v| *v as i32).collect::<Vec<_>>(),
+                            rep.status,
+                            rep.max_residual,
+                            rep.relative_residual
+                        ));
+                        if !rep.limit_mismatches.is_empty() {
+                            notes.push(format!(
+                                "{} joint-limit pairs do not map consistently under P",
+                                rep.limit_mismatches.len()
+                            ));
+                        }
+                        rep.rho_q.clone()
+                    };
+                    (rho_q, notes)
                 };
                 let d = descend(&s.name, kin, &rho_q, &DescendSettings::default())
                     .map_err(|e| sym_err(&s.name, e.to_string()))?;

@@ -4,6 +4,8 @@
 //! [[symmetries]]
 //! name = "M"                       # morphological C2, derived from the URDF (Example 1)
 //! group = { kind = "morphological", chains = ["left", "right"], plane_normal = [0.0, 1.0, 0.0] }
+//! # or, from the whole tree below the chains' base (joints on the plane map to themselves):
+//! # group = { kind = "morphological", whole_body = true, plane_normal = [0.0, 1.0, 0.0] }
 //!
 //! [[symmetries]]
 //! name = "R"                       # SO(2) on task space, lifted to Q (Example 2)
@@ -39,6 +41,11 @@ pub enum GroupSpec {
         /// Hand-written `P` (one ±1 per joint of a chain).
         #[serde(default)]
         signs: Option<Vec<f64>>,
+        /// Derive `ρ_Q` on all controlled joints from the whole kinematic tree below the
+        /// chains' common base (joints paired across the plane or mapped onto themselves,
+        /// every link pose checked), instead of the swap of two chains.
+        #[serde(default)]
+        whole_body: bool,
     },
     /// SO(2) in a plane of the task space (`axis` for 3-D task blocks).
     So2 {

@@ -34,6 +34,34 @@ pub fn rby1_urdf() -> Option<PathBuf> {
     }
 }
 
+/// The `robots` directory of PyPI `example-robot-data` (installed by `tests/robots/install.sh`;
+/// `CROSSYM_EXAMPLE_ROBOTS` overrides), or `None` with a printed reason.
+pub fn example_robots() -> Option<PathBuf> {
+    let dir = match std::env::var_os("CROSSYM_EXAMPLE_ROBOTS") {
+        Some(d) => PathBuf::from(d),
+        None => {
+            let out = Command::new(std::env::var("PYTHON").unwrap_or("python3".into()))
+                .args([
+                    "-c",
+                    "import sysconfig; print(sysconfig.get_paths()['purelib'])",
+                ])
+                .output()
+                .ok()?;
+            PathBuf::from(String::from_utf8_lossy(&out.stdout).trim())
+                .join("cmeel.prefix/share/example-robot-data/robots")
+        }
+    };
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "SKIP: {} is absent (run `bash tests/robots/install.sh` for PyPI example-robot-data)",
+            dir.display()
+        );
+        None
+    }
+}
+
 /// Loads a shipped config file from `config/`.
 pub fn load_config(name: &str) -> Config {
     Config::from_file(root().join("config").join(name)).expect("shipped config loads")

@@ -13,6 +13,7 @@ mod eval;
 mod faults;
 mod kinematics;
 mod lift_compose;
+mod morpho_robots;
 mod policy;
 mod rby1_tasks;
 mod ros;

@@ -3,7 +3,8 @@
 //! - [`flow`]: integrating generators into group actions (eqs. 7, 18).
 //! - [`lift`]: horizontal lift of task fields and the lifted action (eqs. 13–18).
 //! - [`descend`]: equivariance test of `f` and the descended task action (eqs. 8–10).
-//! - [`morpho`]: morphological symmetry `ρ_Q`, `ρ_X` derived from the URDF (eqs. 4, 9; Example 1).
+//! - [`morpho`]: morphological symmetries derived from the URDF: the swap of two chains
+//!   (eqs. 4, 9; Example 1) and the reflection groups of a whole kinematic tree.
 
 pub mod descend;
 pub mod flow;

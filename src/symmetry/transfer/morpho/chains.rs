@@ -20,11 +20,14 @@
 //!    direction `+S z_j`; the mirrored direction equals `±z_i`, which is the sign `P_ij`;
 //! 3. several candidates (e.g. collinear axes at `q = 0`) are resolved by index order; a
 //!    joint without candidates falls back to index order and makes the pairing inconsistent;
-//! 4. the relation is verified on seeded samples inside the joint limits, both ways
+//! 4. distances are relative to the chains' size (the farthest joint origin or tip from
+//!    the base at `q = 0`), so a URDF mirrored to 10 µm on a 1 m robot passes at the default
+//!    `1e-4`, and the residual is reported both in metres and relative;
+//! 5. the relation is verified on seeded samples inside the joint limits, both ways
 //!    (`f_a(P q_b)` vs `P_X f_b(q_b)` and `f_b(P⁻¹ q_a)` vs `P_X f_a(q_a)`), together with the
 //!    tip orientation `R_a(P q_b) = S R_b(q_b) E` for the constant tool-frame reflection
 //!    `E = R_b(0)ᵀ S R_a(0)`;
-//! 5. joint limits must map consistently: `[lo_a, hi_a] = [lo_b, hi_b]` for `P_ij = +1` and
+//! 6. joint limits must map consistently: `[lo_a, hi_a] = [lo_b, hi_b]` for `P_ij = +1` and
 //!    `[−hi_b, −lo_b]` for `P_ij = −1`; every mismatch is reported (not an error).
 //!
 //! Joint types are detected from the chain itself: a joint is revolute when moving it
@@ -34,9 +37,9 @@ use std::fmt;
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::descend::{sample_within_limits, SplitMix64};
 use crate::kinematics::{Chain, ChainWorkspace, Kinematics, TaskSpace};
 use crate::symmetry::finite::SignedPermutation;
+use crate::symmetry::transfer::descend::{sample_within_limits, SplitMix64};
 
 /// Settings of the derivation and its numerical verification.
 #[derive(Debug, Clone, PartialEq)]
@@ -45,13 +48,15 @@ pub struct MorphoSettings {
     pub samples: usize,
     /// Seed of the sampler (runs are deterministic).
     pub seed: u64,
-    /// Largest distance between a mirrored joint axis line (or prismatic origin) and its partner (m).
+    /// Largest distance between a mirrored joint axis line (or prismatic origin) and its
+    /// partner, relative to the chains' size (dimensionless; see [`MorphoReport::size`]).
     pub position_tolerance: f64,
     /// Largest distance between a mirrored unit axis and `±` its partner's.
     pub axis_tolerance: f64,
     /// Largest difference of mapped joint limits counted as consistent (rad or m).
     pub limit_tolerance: f64,
-    /// Largest verification residual counted as a symmetry (task units).
+    /// Largest verification residual counted as a symmetry, relative to the chains' size
+    /// (dimensionless).
     pub residual_tolerance: f64,
 }
 
@@ -60,10 +65,10 @@ impl Default for MorphoSettings {
         Self {
             samples: 256,
             seed: 0x3a3a_0f0f,
-            position_tolerance: 1e-6,
-            axis_tolerance: 1e-6,
+            position_tolerance: 1e-4,
+            axis_tolerance: 1e-4,
             limit_tolerance: 1e-6,
-            residual_tolerance: 1e-6,
+            residual_tolerance: 1e-4,
         }
     }
 }
@@ -142,8 +147,13 @@ pub struct MorphoReport {
     pub unmatched: Vec<usize>,
     /// Joints of `a` with several mirrored candidates, resolved by index order.
     pub ambiguous: Vec<usize>,
-    /// Worst task-point residual over both sampled directions (task units).
+    /// Worst task-point residual over both sampled directions (task units, m).
     pub max_residual: f64,
+    /// Size of the chains: the largest distance of a joint origin or tip from the base at
+    /// `q = 0` (m). Tolerances are relative to it.
+    pub size: f64,
+    /// `max_residual / size` (dimensionless).
+    pub relative_residual: f64,
     /// Worst entry of `R_a(P q_b) − S R_b(q_b) E` over both directions (dimensionless).
     pub orientation_residual: f64,
     /// Pairs whose joint limits do not map into each other under `P`.
@@ -204,6 +214,12 @@ pub enum MorphoError {
     /// No samples requested.
     #[error("the verification needs at least one sample")]
     NoSamples,
+    /// The whole-body derivation cannot start (base link, joint selection, tree).
+    #[error("whole-body derivation: {message}")]
+    Body {
+        /// What is wrong.
+        message: String,
+    },
 }
 
 /// Geometry of a chain's movable joints at `q = 0`.
@@ -212,12 +228,14 @@ struct JointGeometry {
     axes: Vec<Vector3<f64>>,
     prismatic: Vec<bool>,
     tip_rotation: Matrix3<f64>,
+    tip_position: Vector3<f64>,
 }
 
 fn joint_geometry(chain: &Chain, ws: &mut ChainWorkspace) -> JointGeometry {
     let k = chain.dof();
     let mut q = vec![0.0; k];
-    let r0 = chain.forward(&q, ws).rotation;
+    let t0 = *chain.forward(&q, ws);
+    let r0 = t0.rotation;
     let origins = (0..k).map(|i| ws.joint_origin(i)).collect();
     let axes = (0..k).map(|i| ws.joint_axis(i)).collect();
     let prismatic = (0..k)
@@ -233,6 +251,22 @@ fn joint_geometry(chain: &Chain, ws: &mut ChainWorkspace) -> JointGeometry {
         axes,
         prismatic,
         tip_rotation: *r0.matrix(),
+        tip_position: t0.translation.vector,
+    }
+}
+
+/// The largest distance from the base of a joint origin or tip at `q = 0` (m); 1 when all
+/// of them sit at the base.
+fn chains_size(ga: &JointGeometry, gb: &JointGeometry) -> f64 {
+    let size = [ga, gb]
+        .iter()
+        .flat_map(|g| g.origins.iter().chain(std::iter::once(&g.tip_position)))
+        .map(|p| p.norm())
+        .fold(0.0, f64::max);
+    if size > 0.0 && size.is_finite() {
+        size
+    } else {
+        1.0
     }
 }
 
@@ -299,6 +333,8 @@ pub fn derive_morphological(
     let (mut wa, mut wb) = (ca.workspace(), cb.workspace());
     let ga = joint_geometry(ca, &mut wa);
     let gb = joint_geometry(cb, &mut wb);
+    let size = chains_size(&ga, &gb);
+    let position_tolerance = settings.position_tolerance * size;
     let mirrored_axis = |j: usize| {
         let m = s * gb.axes[j];
         if gb.prismatic[j] {
@@ -318,7 +354,7 @@ pub fn derive_morphological(
                     } else {
                         gap.cross(&ga.axes[i]).norm()
                     };
-                    dist <= settings.position_tolerance
+                    dist <= position_tolerance
                 })
                 .filter_map(|j| {
                     let m = mirrored_axis(j);
@@ -461,7 +497,7 @@ pub fn derive_morphological(
 
     let status = if !unmatched.is_empty() {
         MorphoStatus::NoConsistentPairing
-    } else if max_residual > settings.residual_tolerance {
+    } else if max_residual > settings.residual_tolerance * size {
         MorphoStatus::ResidualTooLarge
     } else {
         MorphoStatus::Symmetric
@@ -480,6 +516,8 @@ pub fn derive_morphological(
         unmatched,
         ambiguous,
         max_residual,
+        size,
+        relative_residual: max_residual / size,
         orientation_residual,
         limit_mismatches,
         samples: settings.samples,
