@@ -13,6 +13,7 @@ mod demo;
 mod density;
 mod rollout;
 mod ros;
+mod status;
 mod stress;
 mod symmetries;
 
@@ -83,6 +84,9 @@ enum Command {
     /// robot (input faults, latency, adversarial policies, tight limits); a table of limit
     /// violations. Exits 1 on any violation or non-finite command.
     Stress(stress::StressArgs),
+    /// A live one-line view of a running node's ~/status (code, condition, joint-state age,
+    /// tick time, counters, last error). Exits 1 when no node answers within --timeout-s.
+    Status(status::StatusArgs),
     /// Morphological symmetry group of a robot from its URDF: every reflection plane through
     /// the base that maps the kinematic tree onto itself, the group they generate (C2, K4,
     /// …), each element's signed joint permutation; written as TOML and MorphoSymm YAML.
@@ -196,6 +200,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Density(a) => density::density(&a),
         Command::Rollout(a) => rollout::rollout_cmd(&a),
         Command::Stress(a) => stress::stress(&a),
+        Command::Status(a) => status::status(&a),
         Command::Symmetries(a) => symmetries::symmetries(&a),
         Command::Node {
             config,

@@ -10,10 +10,23 @@ use clap::Parser;
 mod cli;
 
 fn main() -> ExitCode {
-    env_logger::Builder::from_env(
-        env_logger::Env::default().default_filter_or("warn,rustdds=error"),
-    )
-    .init();
+    // ros2-client warns on every start when ROS_DISTRO is unset; the distribution was
+    // chosen when crossym was built, so say that instead (set before any thread starts).
+    if std::env::var_os("ROS_DISTRO").is_none() {
+        std::env::set_var(
+            "ROS_DISTRO",
+            ros2_client::distributions::COMPILED_ROS_DISTRO.as_str(),
+        );
+    }
+    // Libraries log at warn (RustDDS at error) unless RUST_LOG names them: `RUST_LOG=info`
+    // raises crossym's own lines, not 1500 lines of DDS internals.
+    let mut filter = std::env::var("RUST_LOG").unwrap_or_else(|_| "warn".into());
+    for (lib, level) in [("rustdds", "error"), ("ros2_client", "warn")] {
+        if !filter.contains(lib) {
+            filter.push_str(&format!(",{lib}={level}"));
+        }
+    }
+    env_logger::Builder::new().parse_filters(&filter).init();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(code) => code,

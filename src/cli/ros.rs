@@ -7,6 +7,7 @@ use anyhow::Context;
 use clap::Args;
 use crossym::config::Config;
 use crossym::ros::dds::DdsSettings;
+use crossym::ros::log::Severity;
 use crossym::ros::{NodeConfig, NodeCore, OutputMode, Trigger};
 use crossym::sim::{MockHardware, MockHwConfig};
 
@@ -37,6 +38,14 @@ pub struct NodeOverrides {
     /// Stale timeout for joint states (s).
     #[arg(long)]
     pub stale_timeout_s: Option<f64>,
+    /// Console and /rosout log level of the node: debug, info, warn, error (default: a
+    /// `crossym=LEVEL` or bare level in RUST_LOG, else `[node] log_level`, else info).
+    #[arg(long, value_parser = parse_severity)]
+    pub log_level: Option<Severity>,
+}
+
+fn parse_severity(s: &str) -> Result<Severity, String> {
+    Severity::parse(s).ok_or_else(|| format!("`{s}`: expected debug, info, warn or error"))
 }
 
 fn parse_output(s: &str) -> Result<OutputMode, String> {
@@ -83,6 +92,13 @@ pub fn node_config(cfg: &Config, o: &NodeOverrides) -> anyhow::Result<NodeConfig
     if let Some(v) = o.stale_timeout_s {
         n.stale_timeout_s = v;
     }
+    if let Some(l) = o.log_level.or_else(|| {
+        std::env::var("RUST_LOG")
+            .ok()
+            .and_then(|v| Severity::from_rust_log(&v))
+    }) {
+        n.log_level = l;
+    }
     n.validate()?;
     Ok(n)
 }
@@ -108,10 +124,7 @@ pub fn node(path: &Path, o: &NodeOverrides, record: Option<&Path>) -> anyhow::Re
             stats.bag_dropped
         );
     }
-    eprintln!(
-        "crossym node: {} ticks, {} commands, {} publish errors; tick median {:.1} us, p99 {:.1} us, max {:.1} us",
-        stats.ticks, stats.commands, stats.publish_errors, stats.median_us, stats.p99_us, stats.max_us
-    );
+    // The tick summary is the node's last log line.
     Ok(ExitCode::SUCCESS)
 }
 

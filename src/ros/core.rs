@@ -108,6 +108,8 @@ pub struct NodeConfig {
     /// [`ConditionDomain`], read from the policy's sidecar): the policy then extrapolates.
     /// Default false: such conditions are rejected and the previous one is kept.
     pub accept_untrained_conditions: bool,
+    /// Console and `/rosout` log level of the node (`debug`, `info`, `warn`, `error`).
+    pub log_level: super::log::Severity,
 }
 
 impl Default for NodeConfig {
@@ -126,6 +128,7 @@ impl Default for NodeConfig {
             policy: None,
             safety: SafetySettings::default(),
             accept_untrained_conditions: false,
+            log_level: super::log::Severity::Info,
         }
     }
 }
@@ -475,6 +478,10 @@ pub struct StatusSnapshot {
     pub ticks: u64,
     /// Stale ticks since start (count).
     pub stale_ticks: u64,
+    /// Ticks on which the safety QP fell back to the clamp (count).
+    pub fallback_ticks: u64,
+    /// Ticks on which the policy returned non-finite velocities (count).
+    pub nonfinite_ticks: u64,
     /// Age of the joint state at the last tick (s); negative when none.
     pub joint_state_age_s: f64,
     /// Duration of the last tick (µs), as recorded by the caller.
@@ -778,6 +785,8 @@ pub struct NodeCore {
     code: StatusCode,
     ticks: u64,
     stale_ticks: u64,
+    fallback_ticks: u64,
+    nonfinite_ticks: u64,
     active: u32,
     age_s: f64,
     tick_time_us: f64,
@@ -910,6 +919,8 @@ impl NodeCore {
             code: StatusCode::StaleJointStates,
             ticks: 0,
             stale_ticks: 0,
+            fallback_ticks: 0,
+            nonfinite_ticks: 0,
             active: 0,
             age_s: -1.0,
             tick_time_us: 0.0,
@@ -1142,6 +1153,7 @@ impl NodeCore {
             // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
             let publish = self.brake(now_s, out);
             self.code = StatusCode::SafetyFallback;
+            self.fallback_ticks = self.fallback_ticks.saturating_add(1);
             self.active = 0;
             return TickReport {
                 code: self.code,
@@ -1155,6 +1167,12 @@ impl NodeCore {
             self.pos_history.push(now_s, &out.positions);
         }
         self.active = report.active;
+        if report.status == SafetyStatus::Fallback {
+            self.fallback_ticks = self.fallback_ticks.saturating_add(1);
+        }
+        if report.policy_nonfinite {
+            self.nonfinite_ticks = self.nonfinite_ticks.saturating_add(1);
+        }
         self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
             StatusCode::InvalidInput
         } else if report.status == SafetyStatus::Fallback {
@@ -1212,6 +1230,8 @@ impl NodeCore {
             rejected_conditions: self.gate.inputs.rejected_conditions,
             ticks: self.ticks,
             stale_ticks: self.stale_ticks,
+            fallback_ticks: self.fallback_ticks,
+            nonfinite_ticks: self.nonfinite_ticks,
             joint_state_age_s: self.age_s,
             tick_time_us: self.tick_time_us,
             tick_time_max_us: self.tick_time_max_us,

@@ -2,10 +2,14 @@
 //!
 //! Threads:
 //! - **I/O** (tokio, one worker): the subscriptions `/joint_states` (best effort) and
-//!   `~/symmetry_condition` (reliable) feed an [`InputGate`](super::InputGate); after each message the
+//!   `~/symmetry_condition` (reliable) feed an [`InputGate`]; after each message the
 //!   validated [`Inputs`] are published into a lock-free triple buffer (latest value wins).
-//!   Rejections are logged to rosout (at most once per second per kind). The ros2-client
-//!   spinner (graph, parameter services) and the SIGINT/SIGTERM handler run here too.
+//!   The node's log ([`NodeLog`]: console and `/rosout`, like an rclcpp node) is written
+//!   here: a startup summary, each kind of rejection at once and then at most once per
+//!   second with a count, accepted condition changes, and transitions read from the status
+//!   snapshots the control thread hands over (stale ↔ fresh, safety fallbacks, policy
+//!   faults). The ros2-client spinner (graph, parameter services) and the SIGINT/SIGTERM
+//!   handler run here too.
 //! - **Control** (a dedicated thread): every `period_s` (or on every accepted joint state
 //!   with `trigger = "joint_states"`), it takes the latest inputs and runs
 //!   [`NodeCore::tick`] — kinematics, policy `π(q, s)`, safety QP — which allocates, locks
@@ -21,11 +25,11 @@ use std::thread::{self, Thread};
 use std::time::{Duration, Instant};
 
 use futures::StreamExt;
-use ros2_client::log::LogLevel;
-use ros2_client::{NodeOptions, ParameterValue, RosoutRaw};
+use ros2_client::{NodeOptions, ParameterValue};
 
-use super::core::{Command, Inputs, NodeCore, OutputMode, Trigger};
+use super::core::{Command, InputGate, Inputs, NodeCore, OutputMode, StatusSnapshot, Trigger};
 use super::dds::{self, DdsError, DdsSettings};
+use super::log::{NodeLog, Severity, StatusWatch};
 use super::msg;
 use crate::bag::{BagError, BagWriter};
 
@@ -226,27 +230,16 @@ pub fn run(
     let names = core.joint_names().to_vec();
     let trigger = cfg.trigger;
 
-    logger.rosout_raw(
-        ros2_client::builtin_interfaces::Time::now(),
-        LogLevel::Info,
+    let mut log = NodeLog::new(
         &cfg.name,
-        &format!(
-            "crossym node up: {} joints, period {} s, output {:?} on {}, trigger {:?}, domain {}, conditions: {}",
-            names.len(),
-            cfg.period_s,
-            cfg.output,
-            dds::expand_topic(&cfg.topics.command, &cfg.namespace, &cfg.name),
-            trigger,
-            settings.domain_id,
-            gate.domain().map_or_else(
-                || "any valid (accept_untrained_conditions, or no training record)".to_string(),
-                |d| format!("trained on {}", d.describe())
-            )
-        ),
-        file!(),
-        "run",
-        line!(),
+        Some(logger),
+        cfg.log_level,
+        Duration::from_secs(1),
     );
+    for line in startup_summary(&core, &gate, &settings, record) {
+        log.log(Severity::Info, &line);
+    }
+    let (status_tx, status_rx) = std::sync::mpsc::sync_channel::<StatusSnapshot>(64);
 
     // Control thread.
     let stop_ctl = stop.clone();
@@ -258,7 +251,10 @@ pub fn run(
                 core,
                 output,
                 out,
-                status_pub,
+                StatusOut {
+                    publisher: status_pub,
+                    log: status_tx,
+                },
                 stop_ctl,
                 status_names,
                 rec_ctl,
@@ -269,29 +265,14 @@ pub fn run(
         })?;
     let control_thread: Thread = control.thread().clone();
 
-    let node_name = cfg.name.clone();
+    let mut watch = StatusWatch::default();
     runtime.block_on(async {
         tokio::spawn(spinner.spin());
         let signals = dds::shutdown_signal();
         tokio::pin!(signals);
         let mut js_stream = Box::pin(js_sub.async_stream());
         let mut cond_stream = Box::pin(cond_sub.async_stream());
-        let mut last_log = [None::<Instant>; 3];
-        let mut log_limited = |slot: usize, level: LogLevel, text: &str| {
-            let now = Instant::now();
-            if last_log[slot].is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1)) {
-                last_log[slot] = Some(now);
-                logger.rosout_raw(
-                    ros2_client::builtin_interfaces::Time::now(),
-                    level,
-                    &node_name,
-                    text,
-                    file!(),
-                    "io",
-                    line!(),
-                );
-            }
-        };
+        let mut accepted = gate.inputs().condition;
         let mut poll = tokio::time::interval(Duration::from_millis(20));
         loop {
             tokio::select! {
@@ -299,7 +280,7 @@ pub fn run(
                     Some(Ok((m, _))) => {
                         let now_ns = dds::wall_time_ns();
                         if let Err(r) = gate.on_joint_state(&m, now_ns as f64 * 1e-9) {
-                            log_limited(0, LogLevel::Warn, &format!("rejected joint_states: {}", r.explain(&names)));
+                            log.limited(r.describe(), Severity::Warn, &format!("rejected joint_states: {}", r.explain(&names)));
                         }
                         input.input_buffer_mut().copy_from(gate.inputs());
                         input.publish();
@@ -310,16 +291,24 @@ pub fn run(
                             control_thread.unpark();
                         }
                     }
-                    Some(Err(e)) => log_limited(2, LogLevel::Warn, &format!("joint_states not decodable: {e:?}")),
+                    Some(Err(e)) => log.limited("undecodable", Severity::Warn, &format!("joint_states not decodable: {e:?}")),
                     None => break,
                 },
                 m = cond_stream.next() => match m {
                     Some(Ok((m, _))) => {
                         match gate.on_condition(&m) {
-                            Ok(()) => log_limited(1, LogLevel::Info, &format!(
-                                "symmetry condition: theta {} rad, scale {}, reflection {}",
-                                m.theta, m.scale, m.reflection)),
-                            Err(r) => log_limited(1, LogLevel::Warn, &format!("rejected symmetry_condition: {}", gate.explain(&r))),
+                            Ok(()) => {
+                                let c = gate.inputs().condition;
+                                if c != accepted {
+                                    accepted = c;
+                                    log.log(Severity::Info, &format!(
+                                        "symmetry condition accepted: θ = {:.4} rad ({:.1}°), λ = {}, σ = {:+}",
+                                        c.theta, c.theta.to_degrees(), c.scale, c.reflection));
+                                }
+                            }
+                            Err(r) => log.limited(r.describe(), Severity::Warn, &format!(
+                                "rejected symmetry_condition (keeping θ = {:.4} rad, λ = {}, σ = {:+}): {}",
+                                accepted.theta, accepted.scale, accepted.reflection, gate.explain(&r))),
                         }
                         input.input_buffer_mut().copy_from(gate.inputs());
                         input.publish();
@@ -327,11 +316,14 @@ pub fn run(
                             r.send(RecordItem::Condition(m, dds::wall_time_ns(), gate.inputs().condition_seq as u32));
                         }
                     }
-                    Some(Err(e)) => log_limited(2, LogLevel::Warn, &format!("symmetry_condition not decodable: {e:?}")),
+                    Some(Err(e)) => log.limited("undecodable", Severity::Warn, &format!("symmetry_condition not decodable: {e:?}")),
                     None => break,
                 },
                 _ = &mut signals => break,
                 _ = poll.tick() => {
+                    while let Ok(snap) = status_rx.try_recv() {
+                        watch.observe(&snap, &mut log);
+                    }
                     if stop.load(Ordering::Acquire) {
                         break;
                     }
@@ -358,21 +350,90 @@ pub fn run(
                 message: format!("recording: {e}"),
             })?;
     }
-    logger.rosout_raw(
-        ros2_client::builtin_interfaces::Time::now(),
-        LogLevel::Info,
-        &cfg.name,
+    while let Ok(snap) = status_rx.try_recv() {
+        watch.observe(&snap, &mut log);
+    }
+    log.flush_suppressed();
+    log.log(
+        Severity::Info,
         &format!(
-            "crossym node stopped: {} ticks, tick median {:.1} us, p99 {:.1} us, max {:.1} us",
-            stats.ticks, stats.median_us, stats.p99_us, stats.max_us
+            "stopped: {} ticks, {} commands, {} publish errors; tick median {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+            stats.ticks, stats.commands, stats.publish_errors, stats.median_us, stats.p99_us, stats.max_us
         ),
-        file!(),
-        "run",
-        line!(),
     );
     drop(node);
     runtime.shutdown_timeout(Duration::from_millis(200));
     Ok(stats)
+}
+
+/// The node's startup lines: robot, policy and conditions, topics with QoS, output and
+/// rate, safety settings (what an operator checks first).
+fn startup_summary(
+    core: &NodeCore,
+    gate: &InputGate,
+    settings: &DdsSettings,
+    record: Option<&Path>,
+) -> Vec<String> {
+    let cfg = core.config();
+    let kin = core.kinematics();
+    let topic = |t: &str| dds::expand_topic(t, &cfg.namespace, &cfg.name);
+    let chains: Vec<String> = kin
+        .chains()
+        .iter()
+        .map(|c| format!("{} ({} joints, {} → {})", c.name, c.dof(), c.base, c.tip))
+        .collect();
+    let mut lines = vec![
+        format!(
+            "robot `{}`: {} controlled joints in {}",
+            kin.robot,
+            kin.dof(),
+            chains.join(", ")
+        ),
+        format!(
+            "policy {}; conditions accepted: {}",
+            cfg.policy
+                .as_ref()
+                .map_or("(none)".into(), |p| p.display().to_string()),
+            gate.domain().map_or_else(
+                || "any valid (accept_untrained_conditions, or no training record)".to_string(),
+                |d| format!("the trained box, {}", d.describe())
+            )
+        ),
+        format!(
+            "topics: in {} (JointState, best effort, keep last 5), {} (SymmetryCondition, reliable, keep last 10); out {} ({}, reliable, keep last 10), {} (Status every {} s, reliable, keep last 10); DDS domain {}",
+            topic(&cfg.topics.joint_states),
+            topic(&cfg.topics.symmetry_condition),
+            topic(&cfg.topics.command),
+            match cfg.output {
+                OutputMode::Trajectory => "JointTrajectory",
+                _ => "Float64MultiArray",
+            },
+            topic(&cfg.topics.status),
+            cfg.status_period_s,
+            settings.domain_id
+        ),
+        format!(
+            "output {} at {:.0} Hz (period {} s, trigger {}), joint states stale after {} s",
+            format!("{:?}", cfg.output).to_lowercase(),
+            1.0 / cfg.period_s,
+            cfg.period_s,
+            format!("{:?}", cfg.trigger).to_lowercase(),
+            cfg.stale_timeout_s
+        ),
+        format!(
+            "safety: QP filter on position, velocity and acceleration limits (margin {} rad, latency {} s, state delay {} s), end-effector distance {}",
+            cfg.safety.margin,
+            cfg.safety.latency_s.unwrap_or(cfg.period_s),
+            cfg.safety.state_delay_s,
+            cfg.safety
+                .min_ee_distance
+                .map_or("unbounded".into(), |d| format!("≥ {d} m"))
+        ),
+    ];
+    if let Some(dir) = record {
+        lines.push(format!("recording to {}", dir.display()));
+    }
+    lines
 }
 
 /// A message for the bag recorder (sent off the tick over a bounded channel).
@@ -503,11 +564,17 @@ impl CommandPublisher {
     }
 }
 
+/// Where the control thread sends each status: the `~/status` topic and the I/O side's log.
+struct StatusOut {
+    publisher: ros2_client::Publisher<msg::Status>,
+    log: std::sync::mpsc::SyncSender<StatusSnapshot>,
+}
+
 fn control_loop(
     mut core: NodeCore,
     mut inputs: triple_buffer::Output<Inputs>,
     out: CommandPublisher,
-    status_pub: ros2_client::Publisher<msg::Status>,
+    status: StatusOut,
     stop: Arc<AtomicBool>,
     names: Vec<String>,
     rec: Option<Recorder>,
@@ -571,13 +638,14 @@ fn control_loop(
         if t0 >= next_status {
             next_status = t0 + status_period;
             let stamp_ns = dds::wall_time_ns();
-            let m = core
-                .status()
-                .to_msg(msg::Time::from_secs_f64(stamp_ns as f64 * 1e-9), &names);
+            let snap = core.status();
+            // To the I/O side's log (never blocks: a full channel drops the snapshot).
+            let _ = status.log.try_send(snap);
+            let m = snap.to_msg(msg::Time::from_secs_f64(stamp_ns as f64 * 1e-9), &names);
             if let Some(r) = &rec {
                 r.send(RecordItem::Status(m.clone(), stamp_ns));
             }
-            if status_pub.publish(m).is_err() {
+            if status.publisher.publish(m).is_err() {
                 stats.publish_errors += 1;
             }
         }
@@ -592,7 +660,9 @@ fn control_loop(
         stats.commands += 1;
     }
     let stamp = msg::Time::from_secs_f64(dds::wall_time_s());
-    let _ = status_pub.publish(core.status().to_msg(stamp, &names));
+    let _ = status
+        .publisher
+        .publish(core.status().to_msg(stamp, &names));
     // Let reliable writers deliver (and repair) the last samples before they are dropped.
     thread::sleep(Duration::from_millis(300));
     stats.median_us = hist.quantile(0.5);

@@ -14,6 +14,7 @@ mod faults;
 mod kinematics;
 mod lift_compose;
 mod morpho_robots;
+mod operator;
 mod policy;
 mod rby1_tasks;
 mod ros;

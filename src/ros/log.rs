@@ -1,0 +1,403 @@
+//! The node's own log: one line per event on the console (stderr) and on `/rosout`, like an
+//! rclcpp node.
+//!
+//! Console lines follow rcutils' default format
+//! `[{severity}] [{time}] [{name}]: {message}` with the wall time in seconds and
+//! nanoseconds. Repeated events of one kind (a rejected joint state at 500 Hz) are rate
+//! limited: the first is printed immediately, later ones at most once per interval with the
+//! count of those suppressed since. Logging happens on the I/O side of the node, never on
+//! the control tick: the tick only exports a [`StatusSnapshot`]
+//! (a `Copy` value) from which [`StatusWatch`] derives transitions (stale ↔ fresh, safety
+//! fallback episodes, policy faults); condition changes are logged where they are accepted.
+
+use std::io::Write;
+use std::time::{Duration, Instant};
+
+use ros2_client::log::LogLevel;
+use ros2_client::{NodeLoggingHandle, RosoutRaw};
+
+use super::core::{StatusCode, StatusSnapshot};
+
+/// Severity filter of the node's log, from `--log-level` or the environment.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+#[non_exhaustive]
+pub enum Severity {
+    /// Everything, including per-message details.
+    Debug,
+    /// Events: startup, condition changes, transitions, shutdown (default).
+    Info,
+    /// Rejections, faults.
+    Warn,
+    /// Errors only.
+    Error,
+}
+
+impl Severity {
+    /// Parses `debug`, `info`, `warn`/`warning`, `error` (case-insensitive).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "debug" | "trace" => Some(Self::Debug),
+            "info" => Some(Self::Info),
+            "warn" | "warning" => Some(Self::Warn),
+            "error" | "fatal" => Some(Self::Error),
+            _ => None,
+        }
+    }
+
+    /// The level from `RUST_LOG`: a `crossym=LEVEL` directive, else a bare `LEVEL`; `None`
+    /// when it names neither.
+    pub fn from_rust_log(v: &str) -> Option<Self> {
+        let dirs: Vec<&str> = v.split(',').map(str::trim).collect();
+        dirs.iter()
+            .filter_map(|d| d.strip_prefix("crossym="))
+            .find_map(Self::parse)
+            .or_else(|| dirs.iter().find_map(|d| Self::parse(d)))
+    }
+
+    fn label(self) -> &'static str {
+        match self {
+            Self::Debug => "DEBUG",
+            Self::Info => "INFO",
+            Self::Warn => "WARN",
+            Self::Error => "ERROR",
+        }
+    }
+
+    fn ros(self) -> LogLevel {
+        match self {
+            Self::Debug => LogLevel::Debug,
+            Self::Info => LogLevel::Info,
+            Self::Warn => LogLevel::Warn,
+            Self::Error => LogLevel::Error,
+        }
+    }
+}
+
+/// One console line in rcutils' default format (wall time in s).
+pub fn format_line(severity: Severity, wall_s: f64, node: &str, text: &str) -> String {
+    let secs = wall_s.floor();
+    let nanos = ((wall_s - secs) * 1e9).round().min(999_999_999.0);
+    format!(
+        "[{}] [{}.{:09}] [{}]: {}",
+        severity.label(),
+        secs as i64,
+        nanos as u64,
+        node,
+        text
+    )
+}
+
+/// Rate-limit state of one kind of event.
+#[derive(Debug, Clone)]
+struct Limit {
+    kind: &'static str,
+    last: Option<Instant>,
+    suppressed: u64,
+}
+
+/// The node's logger: console and `/rosout`, with per-kind rate limits.
+pub struct NodeLog {
+    node: String,
+    rosout: Option<NodeLoggingHandle>,
+    min: Severity,
+    interval: Duration,
+    limits: Vec<Limit>,
+    sink: Box<dyn FnMut(&str) + Send>,
+}
+
+impl NodeLog {
+    /// A logger for node `node` printing at `min` and above to stderr (and `/rosout` when
+    /// given); repeated kinds at most once per `interval`.
+    pub fn new(
+        node: &str,
+        rosout: Option<NodeLoggingHandle>,
+        min: Severity,
+        interval: Duration,
+    ) -> Self {
+        Self::with_sink(node, rosout, min, interval, |line| {
+            let mut e = std::io::stderr().lock();
+            let _ = writeln!(e, "{line}");
+        })
+    }
+
+    /// As [`NodeLog::new`] with console lines handed to `sink` (tests).
+    pub fn with_sink(
+        node: &str,
+        rosout: Option<NodeLoggingHandle>,
+        min: Severity,
+        interval: Duration,
+        sink: impl FnMut(&str) + Send + 'static,
+    ) -> Self {
+        Self {
+            node: node.into(),
+            rosout,
+            min,
+            interval,
+            limits: Vec::new(),
+            sink: Box::new(sink),
+        }
+    }
+
+    /// Logs one line (console and `/rosout`) when `severity` passes the filter.
+    pub fn log(&mut self, severity: Severity, text: &str) {
+        if severity < self.min {
+            return;
+        }
+        let line = format_line(severity, super::dds::wall_time_s(), &self.node, text);
+        (self.sink)(&line);
+        if let Some(r) = &self.rosout {
+            r.rosout_raw(
+                ros2_client::builtin_interfaces::Time::now(),
+                severity.ros(),
+                &self.node,
+                text,
+                file!(),
+                "crossym",
+                line!(),
+            );
+        }
+    }
+
+    /// Logs an event of `kind`: the first immediately, then at most once per interval with
+    /// the number suppressed since the last line of that kind.
+    pub fn limited(&mut self, kind: &'static str, severity: Severity, text: &str) {
+        let now = Instant::now();
+        let i = match self.limits.iter().position(|l| l.kind == kind) {
+            Some(i) => i,
+            None => {
+                self.limits.push(Limit {
+                    kind,
+                    last: None,
+                    suppressed: 0,
+                });
+                self.limits.len() - 1
+            }
+        };
+        let l = &mut self.limits[i];
+        if l.last
+            .is_some_and(|t| now.duration_since(t) < self.interval)
+        {
+            l.suppressed += 1;
+            return;
+        }
+        let suppressed = std::mem::take(&mut l.suppressed);
+        l.last = Some(now);
+        if suppressed > 0 {
+            let text = format!("{text} ({suppressed} more since the last report)");
+            self.log(severity, &text);
+        } else {
+            self.log(severity, text);
+        }
+    }
+
+    /// Reports what the rate limits held back (at shutdown).
+    pub fn flush_suppressed(&mut self) {
+        let pending: Vec<(&'static str, u64)> = self
+            .limits
+            .iter_mut()
+            .filter(|l| l.suppressed > 0)
+            .map(|l| (l.kind, std::mem::take(&mut l.suppressed)))
+            .collect();
+        for (kind, n) in pending {
+            self.log(
+                Severity::Info,
+                &format!("{n} more `{kind}` event(s) suppressed by the rate limit"),
+            );
+        }
+    }
+}
+
+/// Derives log events from consecutive status snapshots of the control thread.
+#[derive(Debug, Default)]
+pub struct StatusWatch {
+    last: Option<StatusSnapshot>,
+    stale: bool,
+}
+
+impl StatusWatch {
+    /// Compares `s` with the previous snapshot and logs what changed.
+    pub fn observe(&mut self, s: &StatusSnapshot, log: &mut NodeLog) {
+        let stale = s.code == StatusCode::StaleJointStates;
+        match (self.last, stale) {
+            (None, true) => log.log(
+                Severity::Warn,
+                "no joint state yet: commanding zero velocity / hold until one arrives",
+            ),
+            (Some(_), true) if !self.stale => log.log(
+                Severity::Warn,
+                &format!(
+                    "joint states stale (age {}): braking to zero velocity / holding",
+                    age(s.joint_state_age_s)
+                ),
+            ),
+            (prev, false) if prev.is_none() || self.stale => match prev {
+                Some(p) if p.joint_state_age_s >= 0.0 => log.log(
+                    Severity::Info,
+                    &format!(
+                        "joint states fresh again (age {}) after {} stale tick(s): commanding the policy",
+                        age(s.joint_state_age_s),
+                        s.stale_ticks.saturating_sub(p.stale_ticks)
+                    ),
+                ),
+                _ => log.log(
+                    Severity::Info,
+                    &format!(
+                        "joint states received (age {}): commanding the policy",
+                        age(s.joint_state_age_s)
+                    ),
+                ),
+            },
+            _ => {}
+        }
+        self.stale = stale;
+        let prev = self.last.unwrap_or(StatusSnapshot {
+            fallback_ticks: 0,
+            nonfinite_ticks: 0,
+            ..*s
+        });
+        let fb = s.fallback_ticks.saturating_sub(prev.fallback_ticks);
+        if fb > 0 {
+            log.limited(
+                "safety_fallback",
+                Severity::Warn,
+                &format!(
+                    "safety QP fell back to the clamped policy output on {fb} tick(s) ({} in all)",
+                    s.fallback_ticks
+                ),
+            );
+        }
+        let nf = s.nonfinite_ticks.saturating_sub(prev.nonfinite_ticks);
+        if nf > 0 {
+            log.limited(
+                "policy_nonfinite",
+                Severity::Warn,
+                &format!(
+                    "policy returned non-finite velocities on {nf} tick(s) (replaced by 0; {} in all)",
+                    s.nonfinite_ticks
+                ),
+            );
+        }
+        self.last = Some(*s);
+    }
+}
+
+fn age(a: f64) -> String {
+    if a < 0.0 {
+        "none".into()
+    } else {
+        format!("{:.1} ms", a * 1e3)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::{Arc, Mutex};
+
+    fn capture(min: Severity, interval: Duration) -> (NodeLog, Arc<Mutex<Vec<String>>>) {
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let l2 = lines.clone();
+        let log = NodeLog::with_sink("n", None, min, interval, move |s| {
+            l2.lock().unwrap().push(s.to_string())
+        });
+        (log, lines)
+    }
+
+    #[test]
+    fn lines_have_the_rcutils_format() {
+        assert_eq!(
+            format_line(Severity::Warn, 1_700_000_000.25, "crossym", "hello"),
+            "[WARN] [1700000000.250000000] [crossym]: hello"
+        );
+        assert_eq!(
+            Severity::from_rust_log("warn,crossym=debug"),
+            Some(Severity::Debug)
+        );
+        assert_eq!(
+            Severity::from_rust_log("rustdds=info,error"),
+            Some(Severity::Error)
+        );
+        assert_eq!(Severity::from_rust_log("rustdds=info"), None);
+    }
+
+    #[test]
+    fn first_of_a_kind_at_once_then_counted() {
+        let (mut log, lines) = capture(Severity::Info, Duration::from_millis(200));
+        for _ in 0..50 {
+            log.limited("a", Severity::Warn, "bad a");
+        }
+        log.limited("b", Severity::Warn, "bad b");
+        log.log(Severity::Debug, "hidden");
+        let l = lines.lock().unwrap().clone();
+        assert_eq!(l.len(), 2, "{l:?}");
+        std::thread::sleep(Duration::from_millis(250));
+        log.limited("a", Severity::Warn, "bad a");
+        let l = lines.lock().unwrap().clone();
+        assert_eq!(l.len(), 3);
+        assert!(
+            l[2].ends_with("bad a (49 more since the last report)"),
+            "{}",
+            l[2]
+        );
+        log.limited("a", Severity::Warn, "bad a");
+        log.flush_suppressed();
+        let l = lines.lock().unwrap().clone();
+        assert!(
+            l[3].ends_with("1 more `a` event(s) suppressed by the rate limit"),
+            "{l:?}"
+        );
+    }
+
+    #[test]
+    fn status_transitions_become_lines() {
+        use crate::symmetry::compose::Condition;
+        let (mut log, lines) = capture(Severity::Info, Duration::from_secs(1));
+        let mut w = StatusWatch::default();
+        let mut s = StatusSnapshot {
+            code: StatusCode::StaleJointStates,
+            message: "",
+            last_error: None,
+            active_constraints: 0,
+            rejected_joint_states: 0,
+            rejected_conditions: 0,
+            ticks: 1,
+            stale_ticks: 1,
+            fallback_ticks: 0,
+            nonfinite_ticks: 0,
+            joint_state_age_s: -1.0,
+            tick_time_us: 1.0,
+            tick_time_max_us: 1.0,
+            condition: Condition::IDENTITY,
+        };
+        w.observe(&s, &mut log); // no state yet
+        w.observe(&s, &mut log); // unchanged: nothing
+        s.code = StatusCode::NoWarning;
+        s.joint_state_age_s = 0.002;
+        w.observe(&s, &mut log); // fresh
+        s.code = StatusCode::StaleJointStates;
+        s.stale_ticks = 30;
+        w.observe(&s, &mut log); // stale
+        s.code = StatusCode::NoWarning;
+        s.stale_ticks = 40;
+        s.fallback_ticks = 3;
+        w.observe(&s, &mut log); // fresh again + fallback
+        let l = lines.lock().unwrap().clone();
+        assert_eq!(l.len(), 5, "{l:?}");
+        assert!(l[0].contains("[WARN]") && l[0].contains("no joint state yet"));
+        assert!(l[1].contains("joint states received"), "{}", l[1]);
+        assert!(l[2].contains("joint states stale"));
+        assert!(
+            l[3].contains("fresh again") && l[3].contains("after 10 stale tick"),
+            "{}",
+            l[3]
+        );
+        assert!(
+            l[4].contains("fell back") && l[4].contains("on 3 tick"),
+            "{}",
+            l[4]
+        );
+    }
+}

@@ -1,0 +1,236 @@
+//! What an operator sees without ROS tools, checked as an outsider would: `crossym node` and
+//! `crossym mock-hw` as separate processes over DDS (private namespace), bad inputs
+//! published from this process, the node's console log read from its output file, and
+//! `crossym status` run as its own process.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
+use crossym::ros::msg;
+
+use crate::common::{self, Proc};
+
+fn cfg() -> String {
+    common::root()
+        .join("config/letters.toml")
+        .display()
+        .to_string()
+}
+
+/// Waits until the file at `p` contains `needle` (deadline 60 s).
+fn wait_for(p: &Path, needle: &str) -> bool {
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(60) {
+        if std::fs::read_to_string(p)
+            .unwrap_or_default()
+            .contains(needle)
+        {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    false
+}
+
+/// `crossym status ARGS` on `domain` (its own process): exit code and stdout, stderr.
+fn status(domain: u16, args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_crossym"))
+        .args(["status", "--config", &cfg()])
+        .args(args)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_LOCALHOST_ONLY", "1")
+        .env_remove("ROS_DISTRO")
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// `[SEVERITY] [secs.nanos] [name]: text` (rcutils' default console format).
+fn is_rcutils_line(l: &str, node: &str) -> bool {
+    let Some(rest) = ["[INFO] [", "[WARN] [", "[ERROR] [", "[DEBUG] ["]
+        .iter()
+        .find_map(|p| l.strip_prefix(p))
+    else {
+        return false;
+    };
+    let Some((time, rest)) = rest.split_once("] [") else {
+        return false;
+    };
+    let time_ok = time
+        .split_once('.')
+        .is_some_and(|(s, n)| s.parse::<u64>().is_ok() && n.len() == 9 && n.parse::<u64>().is_ok());
+    time_ok && rest.starts_with(&format!("{node}]: "))
+}
+
+#[test]
+fn node_talks_on_the_terminal_and_status_shows_it() {
+    let dir = common::temp_dir("operator");
+    let domain = 71u16;
+    let node_log = dir.join("node.log");
+    let hw_log = dir.join("hw.log");
+    let c = cfg();
+    let mut node = Proc::spawn(
+        {
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_crossym"));
+            cmd.args(["node", "--config", &c]);
+            cmd
+        },
+        "node",
+        domain,
+        &node_log,
+    );
+    let mut hw = Proc::spawn(
+        {
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_crossym"));
+            cmd.args(["mock-hw", "--config", &c]);
+            cmd
+        },
+        "mock-hw",
+        domain,
+        &hw_log,
+    );
+    assert!(
+        wait_for(&node_log, "joint states received"),
+        "{}",
+        common::log_tail(&node_log)
+    );
+
+    // `crossym status` in its own process: three one-line views, exit 0; no ROS_DISTRO nag.
+    let (code, out, err) = status(domain, &["--count", "3", "--timeout-s", "30"]);
+    assert_eq!(code, 0, "{out}\n{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 3, "{out}");
+    for l in &lines {
+        assert!(
+            l.starts_with("NO_WARNING |") || l.starts_with("JOINT_BOUND |"),
+            "{l}"
+        );
+        assert!(l.contains("joint state age") && l.contains("ticks"), "{l}");
+    }
+    assert!(!err.contains("ROS_DISTRO"), "{err}");
+
+    // Bad inputs from this process: 60 joint states without the last joint (at ~200 Hz,
+    // interleaved with the mock hardware's valid ones), a NaN condition, then a new valid one.
+    let settings = DdsSettings {
+        domain_id: domain,
+        range: DiscoveryRange::Localhost,
+    };
+    let ctx = settings.context().unwrap();
+    let mut pnode = ctx
+        .new_node(
+            dds::node_name(
+                "/",
+                &format!("crossym_operator_test_{}", std::process::id()),
+            )
+            .unwrap(),
+            ros2_client::NodeOptions::new().enable_rosout(false),
+        )
+        .unwrap();
+    let js = dds::publisher::<msg::JointState>(&mut pnode, "/joint_states", dds::qos_reliable(10))
+        .unwrap();
+    let cond = dds::publisher::<msg::SymmetryCondition>(
+        &mut pnode,
+        "/crossym/symmetry_condition",
+        dds::qos_reliable(10),
+    )
+    .unwrap();
+    let names = common::planar().kinematics.joint_names().to_vec();
+    std::thread::sleep(Duration::from_millis(500)); // discovery
+    for _ in 0..60 {
+        let n = names.len() - 1;
+        js.publish(msg::JointState {
+            header: msg::Header {
+                stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
+                frame_id: String::new(),
+            },
+            name: names[..n].to_vec(),
+            position: vec![0.0; n],
+            velocity: vec![],
+            effort: vec![],
+        })
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let condition = |theta: f64| msg::SymmetryCondition {
+        header: msg::Header {
+            stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
+            frame_id: String::new(),
+        },
+        theta,
+        scale: 1.0,
+        reflection: 1,
+    };
+    cond.publish(condition(f64::NAN)).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    cond.publish(condition(0.5)).unwrap();
+    assert!(
+        wait_for(&node_log, "symmetry condition accepted: θ = 0.5000 rad"),
+        "{}",
+        common::log_tail(&node_log)
+    );
+
+    // The robot goes silent: the node says it brakes.
+    assert_eq!(hw.term(), 0);
+    assert!(
+        wait_for(&node_log, "joint states stale (age"),
+        "{}",
+        common::log_tail(&node_log)
+    );
+    assert_eq!(node.term(), 0);
+
+    let text = std::fs::read_to_string(&node_log).unwrap();
+    let node_lines: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains("] [crossym]: "))
+        .collect();
+    for l in &node_lines {
+        assert!(is_rcutils_line(l, "crossym"), "not rcutils format: {l}");
+    }
+    let has = |s: &str| node_lines.iter().any(|l| l.contains(s));
+    for s in [
+        "robot `planar_dual_arm`: 8 controlled joints",
+        "policy ",
+        "topics: in /joint_states (JointState, best effort",
+        "output velocity at 100 Hz",
+        "safety: QP filter",
+        "[WARN]",
+        "rejected joint_states",
+        "rejected symmetry_condition (keeping θ = 0.0000 rad",
+        "joint states received (age",
+        "joint states stale (age",
+        "stopped: ",
+    ] {
+        assert!(has(s), "no line with `{s}`:\n{text}");
+    }
+    // 60 rejected joint states in ~0.5 s: the first at once, the rest counted, not printed.
+    let rejected: Vec<&&str> = node_lines
+        .iter()
+        .filter(|l| l.contains("rejected joint_states"))
+        .collect();
+    assert!(
+        !rejected.is_empty() && rejected.len() <= 3,
+        "{} rejection lines:\n{text}",
+        rejected.len()
+    );
+    assert!(
+        has("more since the last report") || has("suppressed by the rate limit"),
+        "{text}"
+    );
+    assert!(!text.contains("ROS_DISTRO"), "{text}");
+    // RustDDS internals stay quiet at the default level.
+    assert!(
+        text.lines().count() < node_lines.len() + 5,
+        "other lines in the node's output:\n{text}"
+    );
+
+    // No node on another domain: exit 1 with a reason.
+    let (code, _, err) = status(domain + 1, &["--timeout-s", "1"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("no status on /crossym/status"), "{err}");
+}
