@@ -258,27 +258,28 @@ impl StatusWatch {
             nonfinite_ticks: 0,
             ..*s
         });
-        let fb = s.fallback_ticks.saturating_sub(prev.fallback_ticks);
-        if fb > 0 {
-            log.limited(
+        for (kind, all, before, what) in [
+            (
                 "safety_fallback",
-                Severity::Warn,
-                &format!(
-                    "safety QP fell back to the clamped policy output on {fb} tick(s) ({} in all)",
-                    s.fallback_ticks
-                ),
-            );
-        }
-        let nf = s.nonfinite_ticks.saturating_sub(prev.nonfinite_ticks);
-        if nf > 0 {
-            log.limited(
+                s.fallback_ticks,
+                prev.fallback_ticks,
+                "safety QP fell back to the clamped policy output",
+            ),
+            (
                 "policy_nonfinite",
-                Severity::Warn,
-                &format!(
-                    "policy returned non-finite velocities on {nf} tick(s) (replaced by 0; {} in all)",
-                    s.nonfinite_ticks
-                ),
-            );
+                s.nonfinite_ticks,
+                prev.nonfinite_ticks,
+                "policy returned non-finite velocities (replaced by 0)",
+            ),
+        ] {
+            let new = all.saturating_sub(before);
+            if new > 0 {
+                log.limited(
+                    kind,
+                    Severity::Warn,
+                    &format!("{what} on {new} tick(s) ({all} in all)"),
+                );
+            }
         }
         self.last = Some(*s);
     }

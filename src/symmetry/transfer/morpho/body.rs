@@ -251,6 +251,8 @@ struct Structure {
     limits: Vec<crate::kinematics::JointLimits>,
     /// Per joint of `q`: its order in the topological (breadth-first) traversal.
     topo: Vec<usize>,
+    /// Per joint of `q`: whether some mimic joint follows it.
+    leads_mimic: Vec<bool>,
     size: f64,
 }
 
@@ -307,6 +309,12 @@ fn structure(
         parent[i] = owner[p];
         depth[i] = parent[i].map_or(0, |k| depth[k] + 1);
     }
+    let mut leads_mimic = vec![false; n];
+    for l in &tree.links {
+        if let Some((i, _, _)) = l.mimic {
+            leads_mimic[i] = true;
+        }
+    }
     let mut topo = vec![0; n];
     for (order, &i) in topo_slots.iter().enumerate() {
         topo[i] = order;
@@ -337,6 +345,7 @@ fn structure(
         owner,
         limits,
         topo,
+        leads_mimic,
         size,
     })
 }
@@ -767,17 +776,9 @@ fn refine_mimic_signs(
     if el.within(settings.residual_tolerance) {
         return (rho, el);
     }
-    let leaders: Vec<usize> = (0..rho.dim())
-        .filter(|&i| {
-            st.tree
-                .links
-                .iter()
-                .any(|l| l.mimic.is_some_and(|(k, _, _)| k == i))
-        })
-        .collect();
-    for i in leaders {
+    for i in (0..rho.dim()).filter(|&i| st.leads_mimic[i]) {
         let k = rho.perm[i];
-        if k < i && leaders_contains(st, k) {
+        if k < i && st.leads_mimic[k] {
             continue; // the pair was tried from k
         }
         let mut flipped = rho.clone();
@@ -794,13 +795,6 @@ fn refine_mimic_signs(
         }
     }
     (rho, el)
-}
-
-fn leaders_contains(st: &Structure, i: usize) -> bool {
-    st.tree
-        .links
-        .iter()
-        .any(|l| l.mimic.is_some_and(|(k, _, _)| k == i))
 }
 
 /// Verifies `(O, ρ)` on sampled configurations: axis lines of every joint and poses of every
@@ -852,7 +846,6 @@ fn verify(
     let (mut pos_res, mut rot_res) = (0.0_f64, 0.0_f64);
     let mut worst = (0.0_f64, String::new());
     let bad = |r: f64| if r.is_finite() { r } else { f64::INFINITY };
-    let leads_mimic: Vec<bool> = (0..n).map(|i| leaders_contains(st, i)).collect();
     let joint_name = |i: usize| {
         tree.links[st.child_slot[i]]
             .joint
@@ -886,7 +879,7 @@ fn verify(
             let d = mapped_direction(o, &z, st.prismatic[i]);
             // The sign of a joint leading mimic joints may follow its mirrored follower
             // rather than its own axis: only the line is checked there.
-            let dir = if leads_mimic[i] {
+            let dir = if st.leads_mimic[i] {
                 (d - zk).norm().min((d + zk).norm())
             } else {
                 (d - inv.signs[i] * zk).norm()
