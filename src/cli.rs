@@ -42,6 +42,10 @@ enum Command {
         /// Config file (TOML) with [letters], [augmentation], [[symmetries]], [composition].
         #[arg(long, short)]
         config: PathBuf,
+        /// Also draw the first training demonstration and its augmented copies, one panel
+        /// per sub-group, into this PNG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
     /// Train a symmetry-conditioned policy on the letters augmented with a sub-group.
     Train {
@@ -238,7 +242,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             initial_q,
             command,
         } => ros::mock_hw(&config, summary.as_deref(), initial_q, command.as_deref()),
-        Command::Augment { config } => augment(&config),
+        Command::Augment { config, plot } => augment(&config, plot.as_deref()),
         Command::Train {
             config,
             group,
@@ -610,7 +614,71 @@ fn pipeline(
     })
 }
 
-fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
+/// A file's name for a figure title (the whole path when it has none).
+fn file_name(p: &std::path::Path) -> String {
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |f| f.to_string_lossy().into_owned(),
+    )
+}
+
+/// Up to `max` augmented trajectories of demonstration `demo` that sub-group
+/// `SubGroup::ALL[gi]` adds to the previous one (rotations, then scalings, then the
+/// reflection; all of it for the first), evenly strided, and a caption naming the set and
+/// the ranges of `θ` and `λ` shown.
+fn figure_conditions(
+    set: &crossym::data::augmentation::AugmentedSet,
+    gi: usize,
+    demo: Option<usize>,
+    max: usize,
+) -> (Vec<&crossym::data::augmentation::Augmented>, String) {
+    use crossym::data::augmentation::SubGroup;
+    let g = SubGroup::ALL[gi];
+    let all: Vec<_> = set
+        .subset(g)
+        .into_iter()
+        .filter(|a| Some(a.traj.demo) == demo)
+        .collect();
+    let new: Vec<_> = match gi.checked_sub(1) {
+        Some(prev) => all
+            .iter()
+            .copied()
+            .filter(|a| !SubGroup::ALL[prev].contains(&a.condition))
+            .collect(),
+        None => all.clone(),
+    };
+    let sel = if new.is_empty() { all } else { new };
+    let stride = sel.len().div_ceil(max.max(1)).max(1);
+    let shown: Vec<_> = sel.into_iter().step_by(stride).collect();
+    let range = |f: &dyn Fn(&Condition) -> f64, unit: &str| {
+        let (lo, hi) = shown
+            .iter()
+            .map(|a| f(&a.condition))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            });
+        let r = crossym::eval::plot::signed;
+        if hi - lo < 1e-9 {
+            format!("{}{unit}", r(lo))
+        } else {
+            format!("{}…{}{unit}", r(lo), r(hi))
+        }
+    };
+    let mut label = format!(
+        "{}: {} condition{}, θ {}, λ {}",
+        g.label(),
+        shown.len(),
+        if shown.len() == 1 { "" } else { "s" },
+        range(&|c| c.theta.to_degrees(), "°"),
+        range(&|c| c.scale, "")
+    );
+    if shown.iter().any(|a| a.condition.reflection < 0) {
+        label.push_str(", σ = −1");
+    }
+    (shown, label)
+}
+
+fn augment(path: &PathBuf, plot: Option<&std::path::Path>) -> anyhow::Result<ExitCode> {
     use crossym::data::augmentation::{DropReason, SubGroup};
     let cfg = Config::from_file(path)?;
     let robot = cfg.load_robot()?;
@@ -688,6 +756,47 @@ fn augment(path: &PathBuf) -> anyhow::Result<ExitCode> {
         }
     }
     println!("paper (G_MRT): 780 train / 600 test trajectories");
+    if let Some(png) = plot {
+        use crossym::eval::plot::{write_paths_grid, PathFigure, PathPanel, XY_VIEW};
+        let kin = &robot.kinematics;
+        let first = p.demos.train.first().copied();
+        let original = first
+            .and_then(|d| p.demos.demos.iter().find(|t| t.demo == d))
+            .context("no training demonstration to plot")?;
+        let panels: Vec<PathPanel> = (0..SubGroup::ALL.len())
+            .map(|gi| {
+                let (shown, label) = figure_conditions(&p.train, gi, first, 8);
+                PathPanel {
+                    m: kin.task_dim(),
+                    arm_dim: kin.chains().first().map_or(2, |c| c.task.dim()),
+                    view: cfg.eval.view.unwrap_or(XY_VIEW),
+                    label,
+                    paths: shown
+                        .iter()
+                        .map(|a| (original.x.clone(), a.traj.x.clone()))
+                        .collect(),
+                }
+            })
+            .filter(|panel| !panel.paths.is_empty())
+            .collect();
+        let fig = PathFigure {
+            nominal_name: "tracked demonstration".into(),
+            executed_name: "augmented copy".into(),
+            ..PathFigure::for_robot(
+                format!(
+                    "Demonstration {} on {} and its augmented copies (FK of the lifted joint paths)",
+                    original.demo, kin.robot
+                ),
+                kin,
+                &cfg.eval,
+            )
+        };
+        if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        write_paths_grid(png, &fig, &panels, panels.len(), 400).map_err(anyhow::Error::msg)?;
+        println!("wrote {}", png.display());
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -788,7 +897,7 @@ fn train(
 
 fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<ExitCode> {
     use crossym::data::augmentation::SubGroup;
-    use crossym::eval::plot::{write_paths_grid, PathPanel, XY_VIEW};
+    use crossym::eval::plot::{write_paths_grid, PathFigure, PathPanel, XY_VIEW};
     use std::fmt::Write as _;
     let cfg = Config::from_file(path)?;
     let robot = cfg.load_robot()?;
@@ -996,34 +1105,15 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
         let panels: Vec<PathPanel> = SubGroup::ALL
             .iter()
             .enumerate()
-            .map(|(gi, &g)| {
-                let on_demo = |g: SubGroup| -> Vec<&crossym::data::augmentation::Augmented> {
-                    p.test
-                        .subset(g)
-                        .into_iter()
-                        .filter(|a| Some(a.traj.demo) == first_demo)
-                        .collect()
-                };
-                let all = on_demo(g);
-                let new: Vec<_> = match gi.checked_sub(1) {
-                    Some(prev) => {
-                        let prev = SubGroup::ALL[prev];
-                        all.iter()
-                            .copied()
-                            .filter(|a| !prev.contains(&a.condition))
-                            .collect()
-                    }
-                    None => all.clone(),
-                };
-                let sel = if new.is_empty() { all } else { new };
-                let stride = sel.len().div_ceil(6).max(1);
+            .map(|(gi, _)| {
+                let (shown, label) = figure_conditions(&p.test, gi, first_demo, 6);
                 PathPanel {
                     m: kin.task_dim(),
                     arm_dim,
                     view,
-                    paths: sel
+                    label,
+                    paths: shown
                         .iter()
-                        .step_by(stride)
                         .map(|a| {
                             let exe =
                                 crossym::eval::rollout_path(policy, kin, &a.traj, &a.condition);
@@ -1037,7 +1127,20 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
         if !panels.is_empty() {
             std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
             let png = out.join(format!("trajectories_{label}.png"));
-            write_paths_grid(&png, &panels, panels.len(), 360).map_err(anyhow::Error::msg)?;
+            let fig = PathFigure {
+                executed_name: format!("rollout of {label}"),
+                nominal_name: "nominal (test demonstration under the condition)".into(),
+                ..PathFigure::for_robot(
+                    format!(
+                        "Table II test sets: {label} on {}, test demonstration {}",
+                        kin.robot,
+                        first_demo.map_or_else(|| "–".into(), |d| d.to_string())
+                    ),
+                    kin,
+                    &cfg.eval,
+                )
+            };
+            write_paths_grid(&png, &fig, &panels, panels.len(), 400).map_err(anyhow::Error::msg)?;
         }
     }
     let _ = write!(

@@ -8,7 +8,7 @@ use std::time::Duration;
 use anyhow::Context;
 use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
-use crossym::eval::plot::{write_paths_png, PathPanel, XY_VIEW};
+use crossym::eval::plot::{condition_label, write_paths_grid, PathFigure, PathPanel, XY_VIEW};
 use crossym::eval::{score, EvalConfig};
 use crossym::policy::Policy;
 use crossym::ros::dds::{DdsSettings, DiscoveryRange};
@@ -419,24 +419,38 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
     ));
     md.push_str(&replay_line);
-    md.push_str("\nFigure `demo.png`: one panel per step, in table order; grey = nominal paths (transformed demonstration), colour = executed end-effector paths (blue left arm, red right arm).\n");
+    md.push_str("\nFigure `demo.png`: one panel per step, in table order, captioned with its condition; grey = nominal paths (transformed demonstration), colour = end-effector paths executed over DDS (blue left arm, red right arm).\n");
     let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
     let view = cfg.eval.view.unwrap_or(XY_VIEW);
     let panels: Vec<PathPanel> = results
         .iter()
         .zip(&steps)
-        .map(|(r, s)| {
+        .enumerate()
+        .map(|(i, (r, s))| {
             PathPanel::single(
                 s.nominal.m,
                 arm_dim,
                 view,
                 s.nominal.x.clone(),
                 r.path.clone(),
+                format!("{}. {}", i + 1, condition_label(&s.condition)),
             )
         })
         .collect();
+    let fig = PathFigure {
+        executed_name: "executed over DDS".into(),
+        ..PathFigure::for_robot(
+            format!(
+                "crossym demo: {} on {}, demonstration {which}, closed loop through the node",
+                super::file_name(&policy_path),
+                kin.robot
+            ),
+            kin,
+            &cfg.eval,
+        )
+    };
     let png = a.out.join("demo.png");
-    write_paths_png(&png, &panels, 360).map_err(anyhow::Error::msg)?;
+    write_paths_grid(&png, &fig, &panels, panels.len().min(5), 360).map_err(anyhow::Error::msg)?;
     std::fs::write(a.out.join("demo.md"), &md)?;
     std::fs::write(a.out.join("demo.csv"), &csv)?;
     println!("{md}");

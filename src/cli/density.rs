@@ -11,7 +11,7 @@ use anyhow::Context;
 use clap::Args;
 use crossym::config::Config;
 use crossym::data::augmentation::{letter_augmenter, GroupGrid};
-use crossym::eval::plot::{curve_colour, write_curves_png};
+use crossym::eval::plot::{curve_colour, write_curves_png, CurveFigure};
 
 /// Arguments of `crossym density`.
 #[derive(Debug, Args)]
@@ -157,7 +157,17 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     std::fs::write(a.out.join("density.csv"), &csv)?;
     std::fs::write(a.out.join("density.md"), &md)?;
-    write_curves_png(&a.out.join("density.png"), &curves, 900, 420).map_err(anyhow::Error::msg)?;
+    let fig = CurveFigure {
+        title: format!(
+            "Augmentation density: π_R on {} trained at rotation steps Δθ, tested every {}°",
+            kin.robot, a.eval_step
+        ),
+        x_desc: "test rotation θ (°)".into(),
+        y_desc: format!("RMSE, Euclidean, arms stacked ({})", cfg.eval.units),
+        names: a.steps.iter().map(|s| format!("Δθ = {s}°")).collect(),
+    };
+    write_curves_png(&a.out.join("density.png"), &fig, &curves, 900, 460)
+        .map_err(anyhow::Error::msg)?;
     println!("{md}");
     println!("wrote {}", a.out.display());
     Ok(ExitCode::SUCCESS)

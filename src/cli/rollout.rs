@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
-use crossym::eval::plot::{write_paths_png, PathPanel, XY_VIEW};
+use crossym::eval::plot::{condition_label, write_paths_png, PathFigure, PathPanel, XY_VIEW};
 use crossym::eval::{rollout, score_path, RolloutStatus};
 
 /// Options of `crossym rollout`.
@@ -218,8 +218,26 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
         let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
         let view = cfg.eval.view.unwrap_or(XY_VIEW);
         let nominal_x = nominal.as_ref().map_or_else(Vec::new, |t| t.x.clone());
-        let panel = PathPanel::single(m, arm_dim, view, nominal_x, t.x.clone());
-        write_paths_png(png, &[panel], 480).map_err(anyhow::Error::msg)?;
+        let caption = format!(
+            "{label}, {}, {:.1} s at Δt = {} s",
+            condition_label(&condition),
+            (t.len().max(1) - 1) as f64 * dt,
+            dt
+        );
+        let panel = PathPanel::single(m, arm_dim, view, nominal_x, t.x.clone(), caption);
+        let fig = PathFigure {
+            executed_name: "open-loop rollout".into(),
+            ..PathFigure::for_robot(
+                format!(
+                    "crossym rollout: {} on {}",
+                    super::file_name(&policy_path),
+                    kin.robot
+                ),
+                kin,
+                &cfg.eval,
+            )
+        };
+        write_paths_png(png, &fig, &[panel], 640).map_err(anyhow::Error::msg)?;
         println!("  wrote {}", png.display());
     }
     Ok(if finite {

@@ -41,6 +41,10 @@ pub struct EvalConfig {
     /// `x` right, `y` up.
     #[serde(default)]
     pub view: Option<[[f64; 3]; 2]>,
+    /// Name of the task-space unit on figure axes (`m` for a URDF robot's metres; default
+    /// `task units`).
+    #[serde(default = "d_units")]
+    pub units: String,
     /// Policies evaluated when `crossym eval` gets no `--policy`: label → weights file
     /// (relative to the config file's directory).
     #[serde(default)]
@@ -51,11 +55,16 @@ fn d_div() -> f64 {
     3.0
 }
 
+fn d_units() -> String {
+    "task units".into()
+}
+
 impl Default for EvalConfig {
     fn default() -> Self {
         Self {
             divergence_threshold: d_div(),
             view: None,
+            units: d_units(),
             policies: Default::default(),
         }
     }

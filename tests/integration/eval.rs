@@ -246,7 +246,34 @@ fn rollout_cli_writes_the_library_rollout_and_scores_it_as_eval() {
         .arg("--plot")
         .arg(&png),
     );
-    assert!(png.metadata().unwrap().len() > 1000);
+    // The figure explains itself: read back by an independent PNG decoder (Python's
+    // standard library), the title strip, the legend strip, the panel caption and the axis
+    // names at the bottom carry text (dark pixels), not only the paths.
+    let ink = std::process::Command::new("python3")
+        .arg(common::path("tests/tools/png_ink.py"))
+        .arg(&png)
+        .args(["0:38", "38:64", "64:90", "670:704"])
+        .output()
+        .expect("python3");
+    assert!(
+        ink.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ink.stderr)
+    );
+    let ink = String::from_utf8(ink.stdout).unwrap();
+    let mut lines = ink.lines();
+    assert_eq!(lines.next(), Some("640 704"), "figure size");
+    for (band, n) in ["title", "legend", "caption", "x-axis name"]
+        .iter()
+        .zip(lines)
+    {
+        let n: usize = n.parse().unwrap();
+        assert!(
+            n > 100,
+            "{band}: {n} dark pixels, no text in {}",
+            png.display()
+        );
+    }
     // What eval computes for the same nominal trajectory and the shipped policy.
     let (cfg, robot, demos) = common::task("letters.toml");
     let kin = &robot.kinematics;
