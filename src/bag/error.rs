@@ -22,6 +22,14 @@ pub enum BagError {
         /// The mcap crate's description.
         message: String,
     },
+    /// The SQLite3 database cannot be read (not a database, truncated, locked …).
+    #[error("{path}: not a readable rosbag2 SQLite3 file: {message}")]
+    Sqlite {
+        /// The file.
+        path: PathBuf,
+        /// SQLite's description.
+        message: String,
+    },
     /// The MCAP profile is not `ros2` or a channel is not CDR.
     #[error("{path}: {message}")]
     NotRos2 {

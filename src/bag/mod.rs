@@ -1,4 +1,5 @@
-//! rosbag2 bags in MCAP: recording, reading and offline replay of the node's traffic.
+//! rosbag2 bags: recording (MCAP), reading (MCAP and SQLite3) and offline replay of the
+//! node's traffic.
 //!
 //! Layout (as `ros2 bag record -s mcap` writes it): a bag is a directory holding
 //! `<name>_0.mcap` and `metadata.yaml` (`rosbag2_bagfile_information`, storage `mcap`).
@@ -19,9 +20,10 @@ mod error;
 pub mod reader;
 pub mod replay;
 pub mod schema;
+pub mod sqlite;
 pub mod writer;
 
-pub use reader::{Bag, BagInfo, RawMessage, TopicInfo};
+pub use reader::{Bag, BagInfo, RawMessage, Storage, TopicInfo};
 pub use writer::{BagWriter, Qos};
 
 pub use error::BagError;

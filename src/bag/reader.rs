@@ -1,5 +1,6 @@
-//! Reading rosbag2 MCAP bags (a bag directory or a single `.mcap` file): checks the
-//! profile and encodings, loads every message in log-time order, decodes CDR.
+//! Reading rosbag2 bags (a bag directory, a single `.mcap` file or a single `.db3` file):
+//! MCAP here (checks the profile and encodings), SQLite3 in [`super::sqlite`]; every message
+//! loaded in log-time order, CDR decoded on demand.
 
 use std::path::{Path, PathBuf};
 
@@ -35,9 +36,31 @@ pub struct TopicInfo {
     pub qos: Option<String>,
 }
 
+/// The storage format of a bag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Storage {
+    /// MCAP (`.mcap`, rosbag2's default since Iron).
+    Mcap,
+    /// SQLite3 (`.db3`, rosbag2's default up to Humble).
+    Sqlite3,
+}
+
+impl Storage {
+    /// rosbag2's storage identifier (`mcap`, `sqlite3`).
+    pub fn id(self) -> &'static str {
+        match self {
+            Self::Mcap => "mcap",
+            Self::Sqlite3 => "sqlite3",
+        }
+    }
+}
+
 /// Summary like `ros2 bag info`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BagInfo {
+    /// Storage format.
+    pub storage: Storage,
     /// Topics.
     pub topics: Vec<TopicInfo>,
     /// Messages (count).
@@ -50,7 +73,7 @@ pub struct BagInfo {
 
 impl std::fmt::Display for BagInfo {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        writeln!(f, "Storage id:    mcap")?;
+        writeln!(f, "Storage id:    {}", self.storage.id())?;
         writeln!(
             f,
             "Duration:      {:.3} s",
@@ -74,8 +97,10 @@ impl std::fmt::Display for BagInfo {
 /// A bag loaded in memory.
 #[derive(Debug, Clone)]
 pub struct Bag {
-    /// The `.mcap` file read.
+    /// The `.mcap` or `.db3` file read.
     pub path: PathBuf,
+    /// Its storage format.
+    pub storage: Storage,
     /// Topics in channel order.
     pub topics: Vec<TopicInfo>,
     /// All messages, sorted by log time (stable).
@@ -83,7 +108,8 @@ pub struct Bag {
 }
 
 impl Bag {
-    /// Opens a bag directory (its `.mcap` file) or an `.mcap` file.
+    /// Opens a bag directory (its one `.mcap` or `.db3` file), an `.mcap` file or a `.db3`
+    /// file.
     pub fn open(path: &Path) -> Result<Self, BagError> {
         let file = if path.is_dir() {
             let rd = std::fs::read_dir(path).map_err(|source| BagError::Io {
@@ -92,7 +118,7 @@ impl Bag {
             })?;
             let mut files: Vec<PathBuf> = rd
                 .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+                .filter(|p| p.extension().is_some_and(|e| e == "mcap" || e == "db3"))
                 .collect();
             files.sort();
             match files.len() {
@@ -100,19 +126,25 @@ impl Bag {
                 0 => {
                     return Err(BagError::NotRos2 {
                         path: path.to_path_buf(),
-                        message: "the bag directory holds no .mcap file".into(),
+                        message: "not a rosbag2 bag: the directory holds no .mcap or .db3 file"
+                            .into(),
                     })
                 }
                 n => {
                     return Err(BagError::NotRos2 {
                         path: path.to_path_buf(),
-                        message: format!("{n} .mcap files: split bags are not supported"),
+                        message: format!(
+                            "{n} storage files (.mcap/.db3): split bags are not supported"
+                        ),
                     })
                 }
             }
         } else {
             path.to_path_buf()
         };
+        if file.extension().is_some_and(|e| e == "db3") {
+            return super::sqlite::open(&file);
+        }
         let buf = std::fs::read(&file).map_err(|source| BagError::Io {
             path: file.clone(),
             source,
@@ -263,6 +295,7 @@ impl Bag {
         messages.sort_by_key(|m| m.log_ns);
         Ok(Self {
             path: path.to_path_buf(),
+            storage: Storage::Mcap,
             topics,
             messages,
         })
@@ -296,6 +329,7 @@ impl Bag {
     /// Topics, counts and time range.
     pub fn info(&self) -> BagInfo {
         BagInfo {
+            storage: self.storage,
             topics: self.topics.clone(),
             message_count: self.messages.len(),
             start_ns: self.messages.first().map_or(0, |m| m.log_ns),

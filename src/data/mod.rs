@@ -5,11 +5,13 @@
 //! - [`mat5`]: a small, defensive MATLAB MAT-file Level 5 reader ([`MatFile`], [`MatValue`]).
 //! - [`letters`]: letters placed in the robot's workspace and tracked into joint space.
 //! - [`augmentation`]: the lifted composed group applied to demonstrations (eq. 23).
+//! - [`recording`]: joint-state recordings from rosbag2 bags (MCAP, SQLite3) by joint name.
 
 pub mod augmentation;
 pub mod lasa;
 pub mod letters;
 pub mod mat5;
+pub mod recording;
 
 pub use lasa::{DataError, Demonstration, LetterSet};
 pub use mat5::{Mat5Error, MatFile, MatValue, MatVariable, NumericClass};

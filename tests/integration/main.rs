@@ -17,6 +17,7 @@ mod morpho_robots;
 mod operator;
 mod policy;
 mod rby1_tasks;
+mod recordings;
 mod ros;
 mod safety;
 mod sim;

@@ -1,0 +1,104 @@
+#!/usr/bin/env python3
+"""Write a joint-state recording as `ros2 bag record /joint_states` would, with rosbags.
+
+    python3 tests/bags/write_recording.py OUTDIR --storage sqlite3|mcap [--seconds 3]
+        [--rate 100] [--fault none|nan|backwards|duplicate|missing-joint|zero-stamps]
+        [--dump FILE.json]
+
+Independent of crossym: the bag is written by rosbags' Writer (SQLite3 or MCAP storage,
+CDR by its typestore). Content: /joint_states (sensor_msgs/msg/JointState) at --rate Hz,
+naming the planar dual arm's eight joints in a shuffled order among joints it does not
+control (torso, head, grippers), positions = a smooth motion, velocity and effort empty;
+header stamps = receive time − 2 ms (a driver's measurement time), receive times jittered
+by up to ±0.5 ms; a /tf_static-like decoy topic of another type.
+
+--dump writes, per message, the header stamp (ns), the receive time (ns) and the positions
+of the eight controlled joints in the order left_joint1..4, right_joint1..4 — what a
+reader mapping joints by name must return.
+
+Faults (one message in the middle): nan (a NaN position of right_joint2), backwards (a
+header stamp 5 ms before the previous), duplicate (the previous header stamp again),
+missing-joint (left_joint3 absent), zero-stamps (every header stamp 0: a driver that
+does not stamp).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import random
+from pathlib import Path
+
+import numpy as np
+from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore
+
+CONTROLLED = [f'left_joint{i}' for i in range(1, 5)] + [f'right_joint{i}' for i in range(1, 5)]
+EXTRA = ['torso_joint', 'head_pan', 'gripper_left_finger', 'gripper_right_finger']
+REST = [0.785398, -0.523599, -0.392699, -0.314159, -0.785398, 0.523599, 0.392699, 0.314159]
+T0_NS = 1_750_000_000 * 1_000_000_000
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument('outdir', type=Path)
+    ap.add_argument('--storage', choices=('sqlite3', 'mcap'), required=True)
+    ap.add_argument('--seconds', type=float, default=3.0)
+    ap.add_argument('--rate', type=float, default=100.0)
+    ap.add_argument('--fault', default='none',
+                    choices=('none', 'nan', 'backwards', 'duplicate', 'missing-joint', 'zero-stamps'))
+    ap.add_argument('--dump', type=Path)
+    args = ap.parse_args()
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    JointState = store.types['sensor_msgs/msg/JointState']
+    Header = store.types['std_msgs/msg/Header']
+    Time = store.types['builtin_interfaces/msg/Time']
+    Str = store.types['std_msgs/msg/String']
+    rng = random.Random(7)
+    order = CONTROLLED + EXTRA
+    rng.shuffle(order)
+
+    n = int(round(args.seconds * args.rate))
+    bad = n // 2
+    plugin = StoragePlugin.SQLITE3 if args.storage == 'sqlite3' else StoragePlugin.MCAP
+    rows = []
+    with Writer(args.outdir, version=8, storage_plugin=plugin) as w:
+        js = w.add_connection('/joint_states', 'sensor_msgs/msg/JointState', typestore=store)
+        decoy = w.add_connection('/robot_description', 'std_msgs/msg/String', typestore=store)
+        w.write(decoy, T0_NS - 1_000_000, store.serialize_cdr(Str(data='<robot/>'), 'std_msgs/msg/String'))
+        prev_stamp = None
+        for k in range(n):
+            t = k / args.rate
+            receive = T0_NS + int(round(t * 1e9)) + rng.randint(-500_000, 500_000)
+            stamp = receive - 2_000_000
+            if args.fault == 'backwards' and k == bad:
+                stamp = prev_stamp - 5_000_000
+            if args.fault == 'duplicate' and k == bad:
+                stamp = prev_stamp
+            if args.fault == 'zero-stamps':
+                stamp = 0
+            prev_stamp = stamp
+            q = {name: REST[i] + 0.3 * math.sin(2 * math.pi * 0.4 * t + 0.5 * i) * (1 - math.exp(-t))
+                 for i, name in enumerate(CONTROLLED)}
+            q.update({name: 0.1 * (i + 1) + 0.01 * t for i, name in enumerate(EXTRA)})
+            if args.fault == 'nan' and k == bad:
+                q['right_joint2'] = float('nan')
+            names = [nm for nm in order if not (args.fault == 'missing-joint' and k == bad and nm == 'left_joint3')]
+            msg = JointState(
+                header=Header(stamp=Time(sec=stamp // 1_000_000_000, nanosec=stamp % 1_000_000_000), frame_id=''),
+                name=names,
+                position=np.array([q[nm] for nm in names], dtype=np.float64),
+                velocity=np.array([], dtype=np.float64),
+                effort=np.array([], dtype=np.float64),
+            )
+            w.write(js, receive, store.serialize_cdr(msg, 'sensor_msgs/msg/JointState'))
+            rows.append({'stamp_ns': stamp, 'receive_ns': receive, 'q': [q[nm] for nm in CONTROLLED]})
+    if args.dump:
+        args.dump.write_text(json.dumps({'joints': CONTROLLED, 'order': order, 'rows': rows}))
+    print(json.dumps({'bag': str(args.outdir), 'messages': n, 'storage': args.storage}))
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,216 @@
+//! Joint-state recordings from rosbag2 bags written by an independent tool (PyPI rosbags,
+//! `tests/bags/write_recording.py`) in both storage formats, SQLite3 and MCAP: joints
+//! matched by name among extra ones in a shuffled order, header or receive stamps, and bad
+//! recordings refused with the bag and the problem named.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crossym::bag::{Bag, Storage};
+use crossym::data::recording::{open_joint_states, RecordingError, StampSource};
+
+use super::common;
+
+/// Writes a recording with rosbags; returns the bag directory (and the dump, if asked).
+fn write(
+    tag: &str,
+    storage: &str,
+    fault: &str,
+    dump: bool,
+) -> (PathBuf, Option<serde_json::Value>) {
+    let dir = common::temp_dir(&format!("rec-{tag}"));
+    let bag = dir.join("bag");
+    let json = dir.join("dump.json");
+    let mut cmd = Command::new("python3");
+    cmd.arg(common::path("tests/bags/write_recording.py"))
+        .arg(&bag)
+        .args(["--storage", storage, "--fault", fault]);
+    if dump {
+        cmd.arg("--dump").arg(&json);
+    }
+    common::run_ok(&mut cmd);
+    let dump =
+        dump.then(|| serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap());
+    (bag, dump)
+}
+
+fn planar_joints() -> Vec<String> {
+    common::planar().kinematics.joint_names().to_vec()
+}
+
+/// Every sample equals what rosbags wrote, joint by joint by name, in both formats and with
+/// both stamp sources.
+#[test]
+fn recordings_from_rosbags_match_what_was_written_in_both_storages() {
+    let joints = planar_joints();
+    for (storage, kind) in [("sqlite3", Storage::Sqlite3), ("mcap", Storage::Mcap)] {
+        let (dir, dump) = write(storage, storage, "none", true);
+        let dump = dump.unwrap();
+        assert_eq!(Bag::open(&dir).unwrap().storage, kind);
+        // The dump's joint order is the robot's (left_joint1..4, right_joint1..4); the bag's
+        // is shuffled among four joints the robot does not have.
+        let dumped: Vec<String> = serde_json::from_value(dump["joints"].clone()).unwrap();
+        assert_eq!(dumped, joints);
+        let order: Vec<String> = serde_json::from_value(dump["order"].clone()).unwrap();
+        assert_ne!(&order[..8], &joints[..], "the writer shuffles");
+        let rows = dump["rows"].as_array().unwrap();
+        for stamps in [StampSource::Header, StampSource::Receive] {
+            let r = open_joint_states(&dir, "/joint_states", &joints, stamps).unwrap();
+            assert_eq!(r.len(), rows.len(), "{storage}");
+            assert_eq!(
+                r.ignored,
+                [
+                    "gripper_left_finger",
+                    "gripper_right_finger",
+                    "head_pan",
+                    "torso_joint"
+                ]
+            );
+            let key = match stamps {
+                StampSource::Header => "stamp_ns",
+                StampSource::Receive => "receive_ns",
+            };
+            let t0 = rows[0][key].as_i64().unwrap();
+            assert_eq!(r.start_ns, i128::from(t0));
+            for (k, row) in rows.iter().enumerate() {
+                let q: Vec<f64> = serde_json::from_value(row["q"].clone()).unwrap();
+                assert_eq!(r.q(k), &q[..], "{storage} sample {k}");
+                let t = (row[key].as_i64().unwrap() - t0) as f64 * 1e-9;
+                assert!((r.t[k] - t).abs() < 1e-12, "{storage} {stamps:?} t[{k}]");
+            }
+        }
+    }
+}
+
+fn refused(storage: &str, fault: &str, stamps: StampSource) -> String {
+    let (dir, _) = write(&format!("{storage}-{fault}"), storage, fault, false);
+    let e = open_joint_states(&dir, "/joint_states", &planar_joints(), stamps).unwrap_err();
+    let text = e.to_string();
+    let db = if storage == "sqlite3" {
+        "bag.db3"
+    } else {
+        "bag.mcap"
+    };
+    assert!(text.contains(db), "the error names the bag file: {text}");
+    text
+}
+
+/// Each fault rosbags writes into the middle of a recording is refused, naming the message
+/// (index 150 of 300) and the problem.
+#[test]
+fn bad_recordings_are_refused_with_the_bag_and_the_problem() {
+    for storage in ["sqlite3", "mcap"] {
+        let nan = refused(storage, "nan", StampSource::Header);
+        assert!(
+            nan.contains("message 150") && nan.contains("`right_joint2` is NaN"),
+            "{nan}"
+        );
+        let back = refused(storage, "backwards", StampSource::Header);
+        assert!(
+            back.contains("message 150") && back.contains("not after the previous one (-0.005"),
+            "{back}"
+        );
+        let dup = refused(storage, "duplicate", StampSource::Header);
+        assert!(dup.contains("a duplicate"), "{dup}");
+        let missing = refused(storage, "missing-joint", StampSource::Header);
+        assert!(missing.contains("`left_joint3` is missing"), "{missing}");
+        let zero = refused(storage, "zero-stamps", StampSource::Header);
+        assert!(
+            zero.contains("message 1 ") && zero.contains("a duplicate"),
+            "{zero}"
+        );
+        // A driver without stamps is still usable through the receive time.
+        let (dir, _) = write(&format!("{storage}-zero-ok"), storage, "zero-stamps", false);
+        let r = open_joint_states(
+            &dir,
+            "/joint_states",
+            &planar_joints(),
+            StampSource::Receive,
+        )
+        .unwrap();
+        assert_eq!(r.len(), 300);
+    }
+}
+
+/// Bags that are not what was asked for: topic absent, wrong type, truncated storage file,
+/// a directory that is not a bag.
+#[test]
+fn unreadable_or_unsuitable_bags_are_refused() {
+    let joints = planar_joints();
+    let (dir, _) = write("topics", "sqlite3", "none", false);
+    let e = open_joint_states(&dir, "/arm/joint_states", &joints, StampSource::Header)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("no topic /arm/joint_states")
+            && e.contains("/joint_states (sensor_msgs/msg/JointState)"),
+        "{e}"
+    );
+    let e =
+        open_joint_states(&dir, "/robot_description", &joints, StampSource::Header).unwrap_err();
+    assert!(matches!(e, RecordingError::WrongType { .. }), "{e}");
+    // Truncated storage files, in both formats.
+    for storage in ["sqlite3", "mcap"] {
+        let (dir, _) = write(&format!("trunc-{storage}"), storage, "none", false);
+        let file = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .find(|p| p.extension().is_some_and(|x| x == "db3" || x == "mcap"))
+            .unwrap();
+        let bytes = std::fs::read(&file).unwrap();
+        std::fs::write(&file, &bytes[..bytes.len() / 3]).unwrap();
+        let e = open_joint_states(&dir, "/joint_states", &joints, StampSource::Header)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(file.file_name().unwrap().to_str().unwrap()),
+            "{e}"
+        );
+        assert!(e.contains("not a readable"), "{storage}: {e}");
+    }
+    // A directory without a storage file, and a file that is not a database.
+    let empty = common::temp_dir("rec-not-a-bag");
+    let e = open_joint_states(&empty, "/joint_states", &joints, StampSource::Header)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not a rosbag2 bag"), "{e}");
+    let fake = empty.join("x.db3");
+    std::fs::write(
+        &fake,
+        b"this is not an SQLite database, it is plain text....",
+    )
+    .unwrap();
+    let e = open_joint_states(&fake, "/joint_states", &joints, StampSource::Header)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("x.db3") && e.contains("not a readable rosbag2 SQLite3 file"),
+        "{e}"
+    );
+    assert!(!Path::new(&empty.join("missing.db3")).exists());
+    let e = open_joint_states(
+        &empty.join("missing.db3"),
+        "/joint_states",
+        &joints,
+        StampSource::Header,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("missing.db3"), "{e}");
+    assert!(
+        !empty.join("missing.db3").exists(),
+        "reading must not create a database"
+    );
+}
+
+/// `crossym bag info` reads an SQLite3 bag like an MCAP one.
+#[test]
+fn bag_info_reads_sqlite3_bags() {
+    let (dir, _) = write("info", "sqlite3", "none", false);
+    let text = common::run_ok(common::crossym(["bag", "info"]).arg(&dir));
+    assert!(text.contains("Storage id:    sqlite3"), "{text}");
+    assert!(
+        text.contains("Topic: /joint_states | Type: sensor_msgs/msg/JointState | Count: 300"),
+        "{text}"
+    );
+}
