@@ -10,6 +10,7 @@ use crossym::config::Config;
 use crossym::symmetry::compose::Condition;
 
 mod demo;
+mod demos;
 mod density;
 mod rollout;
 mod ros;
@@ -98,6 +99,10 @@ enum Command {
     /// The augmentation-density experiment: π_R trained per rotation step Δθ, RMSE against
     /// the test rotation θ (CSV, Markdown and a PNG of the curves).
     Density(density::DensityArgs),
+    /// Recorded demonstrations of [demonstrations] (rosbag2 bags, MCAP or SQLite3): read by
+    /// joint name, resampled, differentiated, idle trimmed; a report per source and figures.
+    /// Exits 1 when a source was refused.
+    Demos(demos::DemosArgs),
     /// Run the ROS 2 node: joint states + symmetry condition → policy → safety QP → command.
     /// Honours ROS_DOMAIN_ID, ROS_LOCALHOST_ONLY, ROS_AUTOMATIC_DISCOVERY_RANGE.
     Node {
@@ -202,6 +207,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check { config } => check(&config),
         Command::Demo(a) => demo::demo(&a),
         Command::Density(a) => density::density(&a),
+        Command::Demos(a) => demos::demos(&a),
         Command::Rollout(a) => rollout::rollout_cmd(&a),
         Command::Stress(a) => stress::stress(&a),
         Command::Status(a) => status::status(&a),

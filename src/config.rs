@@ -132,6 +132,9 @@ pub struct Config {
     /// The letter task's demonstrations (`[letters]`).
     #[serde(default)]
     pub letters: Option<LetterTaskConfig>,
+    /// Recorded demonstrations (`[demonstrations]`, rosbag2 sources).
+    #[serde(default)]
+    pub demonstrations: Option<crate::data::recorded::DemonstrationsConfig>,
     /// Augmentation grids (`[augmentation]`).
     #[serde(default)]
     pub augmentation: Option<AugmentationConfig>,
@@ -175,6 +178,12 @@ impl Config {
             message: e.to_string(),
         })?;
         cfg.path = path.to_path_buf();
+        if let Some(d) = &cfg.demonstrations {
+            d.validate().map_err(|m| ConfigError::Parse {
+                path: path.to_path_buf(),
+                message: format!("[demonstrations]: {m}"),
+            })?;
+        }
         Ok(cfg)
     }
 

@@ -165,6 +165,7 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
         x_desc: "test rotation θ (°)".into(),
         y_desc: format!("RMSE, Euclidean, arms stacked ({})", cfg.eval.units),
         names: a.steps.iter().map(|s| format!("Δθ = {s}°")).collect(),
+        categorical: false,
     };
     write_curves_png(&a.out.join("density.png"), &fig, &curves, 900, 460)
         .map_err(anyhow::Error::msg)?;

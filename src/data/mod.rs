@@ -6,11 +6,16 @@
 //! - [`letters`]: letters placed in the robot's workspace and tracked into joint space.
 //! - [`augmentation`]: the lifted composed group applied to demonstrations (eq. 23).
 //! - [`recording`]: joint-state recordings from rosbag2 bags (MCAP, SQLite3) by joint name.
+//! - [`recorded`]: `[demonstrations]` bag sources read and cleaned, with a report.
+//! - [`clean`]: recordings → demonstrations (gaps, resampling, Savitzky–Golay velocities,
+//!   idle trimming, splitting, limit margins).
 
 pub mod augmentation;
+pub mod clean;
 pub mod lasa;
 pub mod letters;
 pub mod mat5;
+pub mod recorded;
 pub mod recording;
 
 pub use lasa::{DataError, Demonstration, LetterSet};

@@ -495,11 +495,28 @@ pub struct CurveFigure {
     pub y_desc: String,
     /// Legend name of each curve (missing → no legend entry).
     pub names: Vec<String>,
+    /// Unordered curves (joints): distinct colours, no grid lines at the samples; otherwise
+    /// an ordered ramp (dark blue → orange) with faint lines at the first curve's `x`.
+    pub categorical: bool,
 }
+
+/// Distinct colours of unordered curves (the ten of matplotlib's `tab10`).
+const CATEGORICAL: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
 
 /// Writes polylines `y(x)` (colour `curve_colour(i, n)` for curve `i`) into one chart of
 /// `width × height` pixels with the figure's title, axis names and legend, light grid lines
-/// at the `x` values of the first curve, `y` from 0.
+/// at the `x` values of the first curve, the `y` range including 0.
 pub fn write_curves_png(
     path: &Path,
     fig: &CurveFigure,
@@ -523,25 +540,28 @@ fn draw_curves<DB: DrawingBackend>(
         .iter()
         .flatten()
         .filter(|(x, y)| x.is_finite() && y.is_finite());
-    let (mut x0, mut x1, mut y1) = (f64::MAX, f64::MIN, 0.0f64);
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, 0.0f64, 0.0f64);
     for &(x, y) in pts {
         x0 = x0.min(x);
         x1 = x1.max(x);
+        y0 = y0.min(y);
         y1 = y1.max(y);
     }
     if x0 >= x1 {
         return Err("curves have no finite extent".into());
     }
-    let top = (y1 * 1.08).max(1e-9);
+    let pad = 0.08 * (y1 - y0).max(1e-9);
+    let top = if y1 > 0.0 { y1 + pad } else { pad };
+    let bottom = if y0 < 0.0 { y0 - pad } else { 0.0 };
     root.fill(&WHITE).map_err(err)?;
     let mut chart = ChartBuilder::on(root)
         .caption(&fig.title, (FAMILY, 20))
         .margin(12)
         .x_label_area_size(X_LABEL_PX)
         .y_label_area_size(Y_LABEL_PX + 8)
-        .build_cartesian_2d(x0..x1, 0.0..top)
+        .build_cartesian_2d(x0..x1, bottom..top)
         .map_err(err)?;
-    let (sx, sy) = (x1 - x0, top);
+    let (sx, sy) = (x1 - x0, top - bottom);
     let fx = move |v: &f64| tick(*v, sx);
     let fy = move |v: &f64| tick(*v, sy);
     chart
@@ -557,18 +577,22 @@ fn draw_curves<DB: DrawingBackend>(
         .light_line_style(RGBColor(245, 245, 245))
         .draw()
         .map_err(err)?;
-    if let Some(first) = curves.first() {
+    if let Some(first) = curves.first().filter(|_| !fig.categorical) {
         for &(x, _) in first {
             chart
                 .draw_series(LineSeries::new(
-                    [(x, 0.0), (x, top)],
+                    [(x, bottom), (x, top)],
                     RGBColor(232, 232, 232),
                 ))
                 .map_err(err)?;
         }
     }
     for (i, c) in curves.iter().enumerate() {
-        let colour = curve_colour(i, curves.len());
+        let colour = if fig.categorical {
+            CATEGORICAL[i % CATEGORICAL.len()]
+        } else {
+            curve_colour(i, curves.len())
+        };
         let series = chart
             .draw_series(LineSeries::new(
                 c.iter()

@@ -19,7 +19,7 @@ reader mapping joints by name must return.
 Faults (one message in the middle): nan (a NaN position of right_joint2), backwards (a
 header stamp 5 ms before the previous), duplicate (the previous header stamp again),
 missing-joint (left_joint3 absent), zero-stamps (every header stamp 0: a driver that
-does not stamp).
+does not stamp), gap (the messages of 0.3 s from the middle on are missing: a dropout).
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def main() -> int:
     ap.add_argument('--seconds', type=float, default=3.0)
     ap.add_argument('--rate', type=float, default=100.0)
     ap.add_argument('--fault', default='none',
-                    choices=('none', 'nan', 'backwards', 'duplicate', 'missing-joint', 'zero-stamps'))
+                    choices=('none', 'nan', 'backwards', 'duplicate', 'missing-joint', 'zero-stamps', 'gap'))
     ap.add_argument('--dump', type=Path)
     args = ap.parse_args()
 
@@ -69,6 +69,8 @@ def main() -> int:
         w.write(decoy, T0_NS - 1_000_000, store.serialize_cdr(Str(data='<robot/>'), 'std_msgs/msg/String'))
         prev_stamp = None
         for k in range(n):
+            if args.fault == 'gap' and bad <= k < bad + int(round(0.3 * args.rate)):
+                continue
             t = k / args.rate
             receive = T0_NS + int(round(t * 1e9)) + rng.randint(-500_000, 500_000)
             stamp = receive - 2_000_000
@@ -96,7 +98,7 @@ def main() -> int:
             rows.append({'stamp_ns': stamp, 'receive_ns': receive, 'q': [q[nm] for nm in CONTROLLED]})
     if args.dump:
         args.dump.write_text(json.dumps({'joints': CONTROLLED, 'order': order, 'rows': rows}))
-    print(json.dumps({'bag': str(args.outdir), 'messages': n, 'storage': args.storage}))
+    print(json.dumps({'bag': str(args.outdir), 'messages': len(rows), 'storage': args.storage}))
     return 0
 
 

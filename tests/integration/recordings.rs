@@ -214,3 +214,101 @@ fn bag_info_reads_sqlite3_bags() {
         "{text}"
     );
 }
+
+/// `crossym demos` on a config with recorded sources (SQLite3 and MCAP, one with a NaN):
+/// a report line per source, the bad one refused by name (exit 1), figures with text; exit
+/// 0 once the bad source is left out.
+#[test]
+fn demos_cli_reports_every_source_and_refuses_the_bad_one() {
+    let dir = common::temp_dir("rec-demos-cli");
+    for (name, storage, fault) in [
+        ("pick_1", "sqlite3", "none"),
+        ("pick_2", "mcap", "none"),
+        ("pick_3", "mcap", "nan"),
+        ("pick_4", "sqlite3", "gap"),
+    ] {
+        common::run_ok(
+            Command::new("python3")
+                .arg(common::path("tests/bags/write_recording.py"))
+                .arg(dir.join(name))
+                .args(["--storage", storage, "--fault", fault]),
+        );
+    }
+    let robot = std::fs::read_to_string(common::path("config/letters.toml")).unwrap();
+    let robot = &robot[robot.find("[robot]").unwrap()..robot.find("[kinematics]").unwrap()];
+    let robot = robot.replace(
+        "../urdf/planar_dual_arm.urdf",
+        common::path("urdf/planar_dual_arm.urdf").to_str().unwrap(),
+    );
+    let sources = |names: &[&str]| {
+        names
+            .iter()
+            .map(|n| format!("[[demonstrations.sources]]\nname = \"{n}\"\nbag = \"{n}\"\n"))
+            .collect::<String>()
+    };
+    let cfg = dir.join("teach.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "{robot}\n[demonstrations]\ndt = 0.01\ntrain = [\"pick_1\", \"pick_2\"]\ntest = [\"pick_3\"]\n{}",
+            sources(&["pick_1", "pick_2", "pick_3", "pick_4"])
+        ),
+    )
+    .unwrap();
+    let out = common::crossym(["demos", "--config"])
+        .arg(&cfg)
+        .arg("--plot")
+        .arg(dir.join("figs"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(text.contains("pick_1.db3 (300 samples"), "{text}");
+    assert!(text.contains("pick_2.mcap (300 samples"), "{text}");
+    assert!(
+        text.contains("pick_3: REFUSED: ") && text.contains("position of `right_joint2` is NaN"),
+        "{text}"
+    );
+    assert!(
+        text.contains("ignored joints: gripper_left_finger"),
+        "{text}"
+    );
+    for png in ["demos_task.png", "demos_joints.png"] {
+        let ink = common::run_ok(
+            Command::new("python3")
+                .arg(common::path("tests/tools/png_ink.py"))
+                .arg(dir.join("figs").join(png))
+                .arg("0:36"),
+        );
+        let n: usize = ink.lines().nth(1).unwrap().parse().unwrap();
+        assert!(n > 100, "{png}: no title ({n} dark pixels)");
+    }
+    // Without the bad source, and with a name that is not a source: exit 0, then a config
+    // error naming it.
+    std::fs::write(
+        &cfg,
+        format!(
+            "{robot}\n[demonstrations]\ndt = 0.01\ntrain = [\"pick_1\"]\ntest = [\"pick_2\"]\n{}",
+            sources(&["pick_1", "pick_2"])
+        ),
+    )
+    .unwrap();
+    common::run_ok(common::crossym(["demos", "--config"]).arg(&cfg));
+    std::fs::write(
+        &cfg,
+        format!(
+            "{robot}\n[demonstrations]\ndt = 0.01\ntrain = [\"pick_9\"]\n{}",
+            sources(&["pick_1"])
+        ),
+    )
+    .unwrap();
+    let out = common::crossym(["demos", "--config"])
+        .arg(&cfg)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("`pick_9` is not a source"),
+        "{err}"
+    );
+}
