@@ -12,6 +12,7 @@ use crossym::symmetry::compose::Condition;
 mod demo;
 mod demos;
 mod density;
+mod ping;
 mod rollout;
 mod ros;
 mod status;
@@ -92,6 +93,9 @@ enum Command {
     /// A live one-line view of a running node's ~/status (code, condition, joint-state age,
     /// tick time, counters, last error). Exits 1 when no node answers within --timeout-s.
     Status(status::StatusArgs),
+    /// Round trip joint state → command of a running node, from this process: median, p99,
+    /// p99.9, max and lost probes (run the node with --trigger joint_states).
+    Ping(ping::PingArgs),
     /// Morphological symmetry group of a robot from its URDF: every reflection plane through
     /// the base that maps the kinematic tree onto itself, the group they generate (C2, K4,
     /// …), each element's signed joint permutation; written as TOML and MorphoSymm YAML.
@@ -208,6 +212,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Demo(a) => demo::demo(&a),
         Command::Density(a) => density::density(&a),
         Command::Demos(a) => demos::demos(&a),
+        Command::Ping(a) => ping::ping(&a),
         Command::Rollout(a) => rollout::rollout_cmd(&a),
         Command::Stress(a) => stress::stress(&a),
         Command::Status(a) => status::status(&a),

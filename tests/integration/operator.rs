@@ -234,3 +234,68 @@ fn node_talks_on_the_terminal_and_status_shows_it() {
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("no status on /crossym/status"), "{err}");
 }
+
+/// `crossym ping` as its own process against `crossym node --trigger joint_states` (another
+/// process): every probe answered by a command, order statistics printed; without a node,
+/// exit 1 with a reason.
+#[test]
+fn ping_measures_round_trips_to_a_running_node() {
+    let dir = common::temp_dir("ping");
+    let domain = 91u16;
+    let node_log = dir.join("node.log");
+    let c = cfg();
+    let mut node = Proc::spawn(
+        {
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_crossym"));
+            cmd.args(["node", "--config", &c, "--trigger", "joint_states"]);
+            cmd
+        },
+        "node",
+        domain,
+        &node_log,
+    );
+    let ping = |domain: u16, args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_crossym"))
+            .args(["ping", "--config", &c, "--trigger", "joint_states"])
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_LOCALHOST_ONLY", "1")
+            .output()
+            .unwrap()
+    };
+    let out = ping(domain, &["--count", "300", "--rate", "200"]);
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}\n{}\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        common::log_tail(&node_log)
+    );
+    // "ping: N round trips at R Hz: median … µs, p99 … µs, p99.9 … µs, max … µs; L lost …"
+    let line = text.lines().find(|l| l.starts_with("ping: ")).unwrap();
+    let num = |after: &str| -> f64 {
+        line.split(after)
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (n, median, p99, max) = (num("ping: "), num("median "), num("p99 "), num("max "));
+    let lost = num("µs; ");
+    assert_eq!(n + lost, 300.0, "{line}");
+    assert!(lost <= 15.0, "{line}");
+    assert!(0.0 < median && median <= p99 && p99 <= max, "{line}");
+    assert_eq!(node.term(), 0, "{}", common::log_tail(&node_log));
+
+    // No node on another domain: exit 1 with a reason.
+    let out = ping(domain + 1, &["--connect-timeout-s", "1"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("no command on /forward_velocity_controller/commands"),
+        "{err}"
+    );
+}
