@@ -114,6 +114,10 @@ impl Histogram {
 }
 
 /// Runs the node until SIGINT/SIGTERM (or `stop` is set); returns the tick statistics.
+///
+/// Setup (recorder, DDS node and endpoints, I/O runtime, log) allocates; then the control
+/// thread ([`control_loop`]) and the I/O loop ([`InputPath::serve`]) run until a signal,
+/// and [`finish`] joins them and writes the shutdown summary.
 pub fn run(
     core: NodeCore,
     settings: DdsSettings,
@@ -125,9 +129,97 @@ pub fn run(
         Some(dir) => Some(start_recorder(dir, &cfg)?),
         None => None,
     };
-    let rec_io = recorder.as_ref().map(|r| r.0.clone());
-    let rec_ctl = recorder.as_ref().map(|r| r.0.clone());
     let ctx = settings.context()?;
+    let mut node = ctx
+        .new_node(
+            dds::node_name(&cfg.namespace, &cfg.name)?,
+            node_options(&core),
+        )
+        .map_err(|e| DdsError::Create {
+            what: format!("node {}/{}", cfg.namespace, cfg.name),
+            message: format!("{e:?}"),
+        })?;
+    let ends = Endpoints::create(&mut node, &cfg)?;
+    let logger = node.logging_handle();
+    let spinner = node.spinner().map_err(|e| DdsError::Create {
+        what: "spinner".into(),
+        message: format!("{e:?}"),
+    })?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .thread_name("crossym-io")
+        .build()
+        .map_err(|e| NodeRunError::Runtime {
+            message: e.to_string(),
+        })?;
+
+    let stop = stop.unwrap_or_else(|| Arc::new(AtomicBool::new(false)));
+    let gate = core.input_gate();
+    let (input, output) = triple_buffer::triple_buffer(gate.inputs());
+    let names = core.joint_names().to_vec();
+    let mut log = NodeLog::new(
+        &cfg.name,
+        Some(logger),
+        cfg.log_level,
+        Duration::from_secs(1),
+    );
+    for line in startup_summary(&core, &gate, &settings, record) {
+        log.log(Severity::Info, &line);
+    }
+    let (status_tx, status_rx) = std::sync::mpsc::sync_channel::<StatusSnapshot>(64);
+
+    // Control thread.
+    let stop_ctl = stop.clone();
+    let status_names = names.clone();
+    let rec_ctl = recorder.as_ref().map(|r| r.0.clone());
+    let command = ends.command;
+    let status_pub = ends.status;
+    let control = thread::Builder::new()
+        .name("crossym-control".into())
+        .spawn(move || {
+            control_loop(
+                core,
+                output,
+                command,
+                StatusOut {
+                    publisher: status_pub,
+                    log: status_tx,
+                },
+                stop_ctl,
+                status_names,
+                rec_ctl,
+            )
+        })
+        .map_err(|e| NodeRunError::Runtime {
+            message: format!("control thread: {e}"),
+        })?;
+
+    // I/O: inputs in, log out.
+    let mut path = InputPath {
+        accepted: gate.inputs().condition,
+        gate,
+        input,
+        names,
+        recorder: recorder.as_ref().map(|r| r.0.clone()),
+        wake: (cfg.trigger == Trigger::JointStates).then(|| control.thread().clone()),
+        watch: StatusWatch::default(),
+        status: status_rx,
+        log,
+    };
+    runtime.block_on(path.serve(ends.joint_states, ends.conditions, spinner, &stop));
+    stop.store(true, Ordering::Release);
+    control.thread().unpark();
+    let stats = finish(control, recorder, path);
+    drop(node);
+    runtime.shutdown_timeout(Duration::from_millis(200));
+    stats
+}
+
+/// The node's options: read-only parameters describing its configuration, rosout and the
+/// parameter services.
+fn node_options(core: &NodeCore) -> NodeOptions {
+    let cfg = core.config();
     let mut params: Vec<(&str, ParameterValue)> = vec![
         ("period_s", ParameterValue::Double(cfg.period_s)),
         (
@@ -166,178 +258,206 @@ pub fn run(
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
         .collect();
-    options = options.parameter_validator(Box::new(move |name, value| {
+    options.parameter_validator(Box::new(move |name, value| {
         match fixed.iter().find(|(k, _)| k == name) {
             Some((_, v)) if v == value => Ok(()),
             _ => Err(format!(
                 "`{name}` is read-only at runtime: set it in the TOML config or on the command line"
             )),
         }
-    }));
-    let mut node = ctx
-        .new_node(dds::node_name(&cfg.namespace, &cfg.name)?, options)
-        .map_err(|e| DdsError::Create {
-            what: format!("node {}/{}", cfg.namespace, cfg.name),
-            message: format!("{e:?}"),
-        })?;
+    }))
+}
 
-    let js_sub = dds::subscription::<msg::JointState>(
-        &mut node,
-        &cfg.topics.joint_states,
-        dds::qos_sensor(),
-    )?;
-    let cond_sub = dds::subscription::<msg::SymmetryCondition>(
-        &mut node,
-        &cfg.topics.symmetry_condition,
-        dds::qos_reliable(10),
-    )?;
-    let out = match cfg.output {
-        OutputMode::Velocity | OutputMode::Position => {
-            CommandPublisher::Array(dds::publisher::<msg::Float64MultiArray>(
-                &mut node,
-                &cfg.topics.command,
+/// The node's topics: two inputs, the command and the status.
+struct Endpoints {
+    joint_states: ros2_client::Subscription<msg::JointState>,
+    conditions: ros2_client::Subscription<msg::SymmetryCondition>,
+    command: CommandPublisher,
+    status: ros2_client::Publisher<msg::Status>,
+}
+
+impl Endpoints {
+    /// Joint states best effort (sensor QoS), everything else reliable (depth 10).
+    fn create(node: &mut ros2_client::Node, cfg: &super::NodeConfig) -> Result<Self, DdsError> {
+        let command = match cfg.output {
+            OutputMode::Velocity | OutputMode::Position => {
+                CommandPublisher::Array(dds::publisher::<msg::Float64MultiArray>(
+                    node,
+                    &cfg.topics.command,
+                    dds::qos_reliable(10),
+                )?)
+            }
+            OutputMode::Trajectory => {
+                CommandPublisher::Trajectory(dds::publisher::<msg::JointTrajectory>(
+                    node,
+                    &cfg.topics.command,
+                    dds::qos_reliable(10),
+                )?)
+            }
+        };
+        Ok(Self {
+            joint_states: dds::subscription::<msg::JointState>(
+                node,
+                &cfg.topics.joint_states,
+                dds::qos_sensor(),
+            )?,
+            conditions: dds::subscription::<msg::SymmetryCondition>(
+                node,
+                &cfg.topics.symmetry_condition,
                 dds::qos_reliable(10),
-            )?)
-        }
-        OutputMode::Trajectory => {
-            CommandPublisher::Trajectory(dds::publisher::<msg::JointTrajectory>(
-                &mut node,
-                &cfg.topics.command,
-                dds::qos_reliable(10),
-            )?)
-        }
-    };
-    let status_pub =
-        dds::publisher::<msg::Status>(&mut node, &cfg.topics.status, dds::qos_reliable(10))?;
-    let logger = node.logging_handle();
-    let spinner = node.spinner().map_err(|e| DdsError::Create {
-        what: "spinner".into(),
-        message: format!("{e:?}"),
-    })?;
-
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .thread_name("crossym-io")
-        .build()
-        .map_err(|e| NodeRunError::Runtime {
-            message: e.to_string(),
-        })?;
-
-    let stop = stop.unwrap_or_else(|| Arc::new(AtomicBool::new(false)));
-    let mut gate = core.input_gate();
-    let (mut input, output) = triple_buffer::triple_buffer(gate.inputs());
-    let names = core.joint_names().to_vec();
-    let trigger = cfg.trigger;
-
-    let mut log = NodeLog::new(
-        &cfg.name,
-        Some(logger),
-        cfg.log_level,
-        Duration::from_secs(1),
-    );
-    for line in startup_summary(&core, &gate, &settings, record) {
-        log.log(Severity::Info, &line);
-    }
-    let (status_tx, status_rx) = std::sync::mpsc::sync_channel::<StatusSnapshot>(64);
-
-    // Control thread.
-    let stop_ctl = stop.clone();
-    let status_names = names.clone();
-    let control = thread::Builder::new()
-        .name("crossym-control".into())
-        .spawn(move || {
-            control_loop(
-                core,
-                output,
-                out,
-                StatusOut {
-                    publisher: status_pub,
-                    log: status_tx,
-                },
-                stop_ctl,
-                status_names,
-                rec_ctl,
-            )
+            )?,
+            command,
+            status: dds::publisher::<msg::Status>(node, &cfg.topics.status, dds::qos_reliable(10))?,
         })
-        .map_err(|e| NodeRunError::Runtime {
-            message: format!("control thread: {e}"),
-        })?;
-    let control_thread: Thread = control.thread().clone();
+    }
+}
 
-    let mut watch = StatusWatch::default();
-    runtime.block_on(async {
+/// The I/O side: one received message → validation ([`InputGate`]) → the latest inputs in
+/// the triple buffer → (trigger `joint_states`) the control thread woken; plus the node's
+/// log of rejections, condition changes and status transitions.
+struct InputPath {
+    gate: InputGate,
+    input: triple_buffer::Input<Inputs>,
+    names: Vec<String>,
+    recorder: Option<Recorder>,
+    /// The control thread, when every accepted joint state triggers a tick.
+    wake: Option<Thread>,
+    /// The condition last accepted (for change and rejection messages).
+    accepted: crate::symmetry::compose::Condition,
+    watch: StatusWatch,
+    status: std::sync::mpsc::Receiver<StatusSnapshot>,
+    log: NodeLog,
+}
+
+impl InputPath {
+    /// Hands the gate's current inputs to the control thread (latest value wins).
+    fn hand_over(&mut self) {
+        self.input.input_buffer_mut().copy_from(self.gate.inputs());
+        self.input.publish();
+    }
+
+    /// One joint state: validated, handed over, recorded, the control thread woken.
+    fn on_joint_state(&mut self, m: msg::JointState) {
+        let now_ns = dds::wall_time_ns();
+        if let Err(r) = self.gate.on_joint_state(&m, now_ns as f64 * 1e-9) {
+            self.log.limited(
+                r.describe(),
+                Severity::Warn,
+                &format!("rejected joint_states: {}", r.explain(&self.names)),
+            );
+        }
+        self.hand_over();
+        if let Some(r) = &self.recorder {
+            r.send(RecordItem::JointState(
+                m,
+                now_ns,
+                self.gate.inputs().joint_state_seq as u32,
+            ));
+        }
+        if let Some(t) = &self.wake {
+            t.unpark();
+        }
+    }
+
+    /// One symmetry condition: validated (a change is logged), handed over, recorded.
+    fn on_condition(&mut self, m: msg::SymmetryCondition) {
+        match self.gate.on_condition(&m) {
+            Ok(()) => {
+                let c = self.gate.inputs().condition;
+                if c != self.accepted {
+                    self.accepted = c;
+                    self.log.log(
+                        Severity::Info,
+                        &format!(
+                            "symmetry condition accepted: θ = {:.4} rad ({:.1}°), λ = {}, σ = {:+}",
+                            c.theta,
+                            c.theta.to_degrees(),
+                            c.scale,
+                            c.reflection
+                        ),
+                    );
+                }
+            }
+            Err(r) => {
+                let a = self.accepted;
+                let why = self.gate.explain(&r);
+                self.log.limited(
+                    r.describe(),
+                    Severity::Warn,
+                    &format!(
+                        "rejected symmetry_condition (keeping θ = {:.4} rad, λ = {}, σ = {:+}): {why}",
+                        a.theta, a.scale, a.reflection
+                    ),
+                );
+            }
+        }
+        self.hand_over();
+        if let Some(r) = &self.recorder {
+            r.send(RecordItem::Condition(
+                m,
+                dds::wall_time_ns(),
+                self.gate.inputs().condition_seq as u32,
+            ));
+        }
+    }
+
+    /// Logs the transitions in the status snapshots the control thread sent.
+    fn drain_status(&mut self) {
+        while let Ok(snap) = self.status.try_recv() {
+            self.watch.observe(&snap, &mut self.log);
+        }
+    }
+
+    /// The I/O loop: both subscriptions, the spinner, signals, and every 20 ms the status
+    /// snapshots and `stop`; returns on a signal, `stop` or a closed subscription.
+    async fn serve(
+        &mut self,
+        joint_states: ros2_client::Subscription<msg::JointState>,
+        conditions: ros2_client::Subscription<msg::SymmetryCondition>,
+        spinner: ros2_client::Spinner,
+        stop: &AtomicBool,
+    ) {
         tokio::spawn(spinner.spin());
         let signals = dds::shutdown_signal();
         tokio::pin!(signals);
-        let mut js_stream = Box::pin(js_sub.async_stream());
-        let mut cond_stream = Box::pin(cond_sub.async_stream());
-        let mut accepted = gate.inputs().condition;
+        let mut js_stream = Box::pin(joint_states.async_stream());
+        let mut cond_stream = Box::pin(conditions.async_stream());
         let mut poll = tokio::time::interval(Duration::from_millis(20));
         loop {
             tokio::select! {
                 m = js_stream.next() => match m {
-                    Some(Ok((m, _))) => {
-                        let now_ns = dds::wall_time_ns();
-                        if let Err(r) = gate.on_joint_state(&m, now_ns as f64 * 1e-9) {
-                            log.limited(r.describe(), Severity::Warn, &format!("rejected joint_states: {}", r.explain(&names)));
-                        }
-                        input.input_buffer_mut().copy_from(gate.inputs());
-                        input.publish();
-                        if let Some(r) = &rec_io {
-                            r.send(RecordItem::JointState(m, now_ns, gate.inputs().joint_state_seq as u32));
-                        }
-                        if trigger == Trigger::JointStates {
-                            control_thread.unpark();
-                        }
-                    }
-                    Some(Err(e)) => log.limited("undecodable", Severity::Warn, &format!("joint_states not decodable: {e:?}")),
+                    Some(Ok((m, _))) => self.on_joint_state(m),
+                    Some(Err(e)) => self.log.limited("undecodable", Severity::Warn, &format!("joint_states not decodable: {e:?}")),
                     None => break,
                 },
                 m = cond_stream.next() => match m {
-                    Some(Ok((m, _))) => {
-                        match gate.on_condition(&m) {
-                            Ok(()) => {
-                                let c = gate.inputs().condition;
-                                if c != accepted {
-                                    accepted = c;
-                                    log.log(Severity::Info, &format!(
-                                        "symmetry condition accepted: θ = {:.4} rad ({:.1}°), λ = {}, σ = {:+}",
-                                        c.theta, c.theta.to_degrees(), c.scale, c.reflection));
-                                }
-                            }
-                            Err(r) => log.limited(r.describe(), Severity::Warn, &format!(
-                                "rejected symmetry_condition (keeping θ = {:.4} rad, λ = {}, σ = {:+}): {}",
-                                accepted.theta, accepted.scale, accepted.reflection, gate.explain(&r))),
-                        }
-                        input.input_buffer_mut().copy_from(gate.inputs());
-                        input.publish();
-                        if let Some(r) = &rec_io {
-                            r.send(RecordItem::Condition(m, dds::wall_time_ns(), gate.inputs().condition_seq as u32));
-                        }
-                    }
-                    Some(Err(e)) => log.limited("undecodable", Severity::Warn, &format!("symmetry_condition not decodable: {e:?}")),
+                    Some(Ok((m, _))) => self.on_condition(m),
+                    Some(Err(e)) => self.log.limited("undecodable", Severity::Warn, &format!("symmetry_condition not decodable: {e:?}")),
                     None => break,
                 },
                 _ = &mut signals => break,
                 _ = poll.tick() => {
-                    while let Ok(snap) = status_rx.try_recv() {
-                        watch.observe(&snap, &mut log);
-                    }
+                    self.drain_status();
                     if stop.load(Ordering::Acquire) {
                         break;
                     }
                 }
             }
         }
-        Ok::<(), NodeRunError>(())
-    })?;
-    stop.store(true, Ordering::Release);
-    control_thread.unpark();
+    }
+}
+
+/// Joins the control thread (which sent the final command) and the recorder, logs the
+/// last transitions and the shutdown summary.
+fn finish(
+    control: thread::JoinHandle<TickStats>,
+    recorder: Option<(Recorder, thread::JoinHandle<Result<u64, BagError>>)>,
+    mut path: InputPath,
+) -> Result<TickStats, NodeRunError> {
     let mut stats = control.join().map_err(|_| NodeRunError::Runtime {
         message: "control thread panicked".into(),
     })?;
-    drop(rec_io);
+    path.recorder = None;
     if let Some((r, handle)) = recorder {
         stats.bag_dropped = r.dropped.load(Ordering::Relaxed);
         drop(r);
@@ -350,19 +470,15 @@ pub fn run(
                 message: format!("recording: {e}"),
             })?;
     }
-    while let Ok(snap) = status_rx.try_recv() {
-        watch.observe(&snap, &mut log);
-    }
-    log.flush_suppressed();
-    log.log(
+    path.drain_status();
+    path.log.flush_suppressed();
+    path.log.log(
         Severity::Info,
         &format!(
             "stopped: {} ticks, {} commands, {} publish errors; tick median {:.1} µs, p99 {:.1} µs, max {:.1} µs",
             stats.ticks, stats.commands, stats.publish_errors, stats.median_us, stats.p99_us, stats.max_us
         ),
     );
-    drop(node);
-    runtime.shutdown_timeout(Duration::from_millis(200));
     Ok(stats)
 }
 
