@@ -22,10 +22,7 @@ use plotters::style::text_anchor;
 use crate::symmetry::compose::Condition;
 
 /// The embedded font (DejaVu Sans 2.37, Bitstream Vera licence).
-static FONT: &[u8] = include_bytes!(concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/assets/fonts/DejaVuSans.ttf"
-));
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// The font family every figure uses (registered as plotters' `sans-serif`).
 const FAMILY: &str = "sans-serif";
