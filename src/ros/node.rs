@@ -116,8 +116,8 @@ impl Histogram {
 /// Runs the node until SIGINT/SIGTERM (or `stop` is set); returns the tick statistics.
 ///
 /// Setup (recorder, DDS node and endpoints, I/O runtime, log) allocates; then the control
-/// thread ([`control_loop`]) and the I/O loop ([`InputPath::serve`]) run until a signal,
-/// and [`finish`] joins them and writes the shutdown summary.
+/// thread (`control_loop`) and the I/O loop (`InputPath::serve`) run until a signal,
+/// and `finish` joins them and writes the shutdown summary.
 pub fn run(
     core: NodeCore,
     settings: DdsSettings,
