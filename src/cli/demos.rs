@@ -42,7 +42,7 @@ pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
         kin.dof(),
         kin.robot
     );
-    let loaded = load_sources(dcfg, &cfg.base_dir, kin);
+    let loaded = load_sources(dcfg, |p| cfg.resolve(p), kin);
     let mut refused = 0;
     let mut all = Vec::new();
     for (name, r) in &loaded {
@@ -92,7 +92,7 @@ pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
                         (d.len().max(1) - 1) as f64 * d.dt,
                         d.start_s
                     );
-                    all.push((dn.clone(), d.clone()));
+                    all.push((dn, d));
                 }
             }
         }
@@ -105,10 +105,10 @@ pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
         let panels: Vec<PathPanel> = all
             .iter()
             .map(|(dn, d)| {
-                let x: Vec<f64> =
-                    d.q.chunks_exact(d.n)
-                        .flat_map(|q| kin.forward(q, &mut ws).iter().copied().collect::<Vec<_>>())
-                        .collect();
+                let mut x = Vec::with_capacity(d.len() * m);
+                for q in d.q.chunks_exact(d.n) {
+                    x.extend_from_slice(kin.forward(q, &mut ws).as_slice());
+                }
                 PathPanel::single(
                     m,
                     kin.chains().first().map_or(2, |c| c.task.dim()),

@@ -230,13 +230,15 @@ fn resample(
 /// Savitzky–Golay derivative weights for a window of `w` samples evaluated at position
 /// `c` (0-based within the window), degree `p`, step `dt`: `q̇ = Σ_m weights[m] q_m`.
 pub fn savitzky_golay_weights(w: usize, c: usize, p: usize, dt: f64) -> Vec<f64> {
-    let v = nalgebra::DMatrix::from_fn(w, p + 1, |m, r| (m as f64 - c as f64).powi(r as i32));
+    // Abscissae scaled to |τ| ≤ 1 keep VᵀV well conditioned for any window length.
+    let s = w as f64;
+    let v = nalgebra::DMatrix::from_fn(w, p + 1, |m, r| ((m as f64 - c as f64) / s).powi(r as i32));
     let vtv = v.transpose() * &v;
     let inv = vtv
         .try_inverse()
-        .expect("VᵀV of distinct nodes with w > p is invertible");
+        .expect("VᵀV of w > p distinct nodes in [−1, 1] is invertible");
     let rows = inv * v.transpose();
-    (0..w).map(|m| rows[(1, m)] / dt).collect()
+    (0..w).map(|m| rows[(1, m)] / (s * dt)).collect()
 }
 
 /// Velocities of a uniform series `q` (`len × n`, step `dt`).

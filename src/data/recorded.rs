@@ -113,24 +113,20 @@ pub struct LoadedSource {
     pub report: CleanReport,
 }
 
-/// Reads and cleans every source of `cfg` for `kin`'s joints (relative bag paths against
-/// `base_dir`). A source that fails does not stop the others: each gets its `Result`, the
-/// error text naming the bag and the problem.
+/// Reads and cleans every source of `cfg` for `kin`'s joints, bag paths mapped by
+/// `resolve` (relative to the config file: [`crate::config::Config::resolve`]). A source
+/// that fails does not stop the others: each gets its `Result`, the error text naming the
+/// bag and the problem.
 pub fn load_sources(
     cfg: &DemonstrationsConfig,
-    base_dir: &Path,
+    resolve: impl Fn(&Path) -> PathBuf,
     kin: &Kinematics,
 ) -> Vec<(String, Result<LoadedSource, String>)> {
     let joints = kin.joint_names();
     cfg.sources
         .iter()
         .map(|s| {
-            let path = if s.bag.is_absolute() {
-                s.bag.clone()
-            } else {
-                base_dir.join(&s.bag)
-            };
-            let r = open_joint_states(&path, &s.topic, joints, s.stamps)
+            let r = open_joint_states(&resolve(&s.bag), &s.topic, joints, s.stamps)
                 .map_err(|e| e.to_string())
                 .and_then(|rec: JointRecording| {
                     let (demos, report) = clean(&rec, cfg.dt, &cfg.cleaning, Some(kin.limits()))
