@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use crossym::config::Config;
+use crossym::pipeline::Splits;
 use crossym::symmetry::compose::Condition;
 
 mod demo;
@@ -38,10 +39,10 @@ enum Command {
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         q: Option<Vec<f64>>,
     },
-    /// Track the letters into joint space and augment them with the composed group;
+    /// Load the demonstrations ([demonstrations]) and augment them with the composed group;
     /// prints counts (train/test per sub-group), drops by reason and timing.
     Augment {
-        /// Config file (TOML) with [letters], [augmentation], [[symmetries]], [composition].
+        /// Config file (TOML) with [demonstrations], [augmentation], [[symmetries]], [composition].
         #[arg(long, short)]
         config: PathBuf,
         /// Also draw the first training demonstration and its augmented copies, one panel
@@ -49,9 +50,9 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
-    /// Train a symmetry-conditioned policy on the letters augmented with a sub-group.
+    /// Train a symmetry-conditioned policy on the demonstrations augmented with a sub-group.
     Train {
-        /// Config file (TOML) with [letters], [augmentation], [train].
+        /// Config file (TOML) with [demonstrations], [augmentation], [train].
         #[arg(long, short)]
         config: PathBuf,
         /// Sub-group used for augmentation: identity, R, RT or MRT.
@@ -441,17 +442,6 @@ fn check(path: &PathBuf) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// Letters tracked into joint space and both splits augmented with the full grid.
-struct Pipeline {
-    demos: crossym::data::letters::LetterDemos,
-    train: crossym::data::augmentation::AugmentedSet,
-    test: crossym::data::augmentation::AugmentedSet,
-    /// The training demonstrations under the test grid (Table II's no-learning reference).
-    reference: crossym::data::augmentation::AugmentedSet,
-    train_secs: f64,
-    test_secs: f64,
-}
-
 /// Parses `theta_rad:scale:reflection` into a validated condition (and echoes the text as
 /// its label).
 pub(crate) fn parse_condition(s: &str) -> anyhow::Result<(String, Condition)> {
@@ -477,152 +467,44 @@ pub(crate) fn parse_condition(s: &str) -> anyhow::Result<(String, Condition)> {
     Ok((s.to_string(), c))
 }
 
-/// Which augmented sets [`pipeline`] builds (the others stay empty).
-#[derive(Debug, Clone, Copy)]
-struct Splits {
-    train: bool,
-    test: bool,
-    /// The training demonstrations augmented with the test grid.
-    reference: bool,
-}
-
-/// The tracked demonstrations of `[letters]` (an error naming the file when it is absent).
+/// The demonstrations of `[demonstrations]` (or a legacy `[letters]`).
 fn letter_demos(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,
-) -> anyhow::Result<crossym::data::letters::LetterDemos> {
-    let letters = cfg
-        .letters
-        .as_ref()
-        .with_context(|| format!("{}: no [letters] section", cfg.path.display()))?;
-    Ok(letters.build(kin, &cfg.base_dir)?)
+) -> anyhow::Result<crossym::data::demonstrations::Demonstrations> {
+    Ok(cfg.load_demonstrations(kin)?)
 }
 
-/// The canonical task-space features `[train] task_features` asks for (`None` without),
-/// restricted to the sub-group `group` the policy is trained on.
-pub(crate) fn task_features_for(
-    cfg: &Config,
-    kin: &crossym::kinematics::Kinematics,
-    built: &[crossym::symmetry::check::BuiltSymmetry],
-    tc: &crossym::policy::TrainConfig,
-    group: crossym::data::augmentation::SubGroup,
-) -> anyhow::Result<Option<crossym::policy::TaskFeatures>> {
-    if !tc.task_features {
-        return Ok(None);
-    }
-    let mut f = crossym::policy::TaskFeatures::for_robot(kin, built, &cfg.composition.order)
-        .map_err(|e| anyhow::anyhow!("{}: [train] task_features: {e}", cfg.path.display()))?;
-    f.restrict_to(group);
-    Ok(Some(f))
-}
-
-/// Loads a policy and checks that it drives `kin`'s joints, in the same order.
-fn load_policy_for(
-    kin: &crossym::kinematics::Kinematics,
-    file: &std::path::Path,
-) -> anyhow::Result<crossym::policy::Policy> {
-    let policy = crossym::policy::Policy::load(file)?;
-    anyhow::ensure!(
-        policy.meta.joint_names == kin.joint_names(),
-        "{}: policy joints {:?} differ from the robot's {:?}",
-        file.display(),
-        policy.meta.joint_names,
-        kin.joint_names()
+/// A progress bar for [`crossym::pipeline::build`]'s augmentation steps.
+fn progress_bar() -> impl Fn(crossym::pipeline::Progress<'_>) + Sync {
+    use crossym::pipeline::Progress;
+    let bar = indicatif::ProgressBar::hidden();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "  {msg} [{bar:30}] {pos}/{len} (demo, scale) tasks {elapsed}",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
     );
-    if let Some(t) = policy.task_features() {
-        t.check_kinematics(kin)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    move |p| match p {
+        Progress::Start { label, tasks } => {
+            bar.reset();
+            bar.set_length(tasks as u64);
+            bar.set_message(label.to_string());
+            bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
+        Progress::Tick => bar.inc(1),
+        Progress::Done => bar.finish_and_clear(),
     }
-    Ok(policy)
 }
 
-/// Demonstration `which` (1-based) of `demos`, by default the first of `[letters] test`.
-fn pick_demo(
-    demos: &crossym::data::letters::LetterDemos,
-    which: Option<usize>,
-) -> anyhow::Result<&crossym::data::letters::JointTrajectory> {
-    let which = which
-        .or_else(|| demos.test.first().copied())
-        .context("no demonstration given and no [letters] test demonstration")?;
-    demos
-        .demos
-        .iter()
-        .find(|d| d.demo == which)
-        .with_context(|| {
-            format!(
-                "no demonstration {which} (have {:?})",
-                demos.demos.iter().map(|d| d.demo).collect::<Vec<_>>()
-            )
-        })
-}
-
+/// [`crossym::pipeline::build`] with a progress bar.
 fn pipeline(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,
     splits: Splits,
-) -> anyhow::Result<Pipeline> {
-    use crossym::data::augmentation::{letter_augmenter, AugmentedSet};
-    let aug = cfg
-        .augmentation
-        .as_ref()
-        .with_context(|| format!("{}: no [augmentation] section", cfg.path.display()))?;
-    aug.train
-        .validate()
-        .map_err(anyhow::Error::msg)
-        .context("[augmentation] train")?;
-    aug.test
-        .validate()
-        .map_err(anyhow::Error::msg)
-        .context("[augmentation] test")?;
-    let demos = letter_demos(cfg, kin)?;
-    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
-    let augmenter =
-        letter_augmenter(kin, &built, &cfg.composition.order).map_err(anyhow::Error::msg)?;
-    for (label, grid) in [("train", &aug.train), ("test", &aug.test)] {
-        augmenter
-            .supports(grid)
-            .map_err(anyhow::Error::msg)
-            .with_context(|| format!("[augmentation] {label}"))?;
-    }
-    let run = |label: &str, grid: &crossym::data::augmentation::GroupGrid, which: &[usize]| {
-        let sel = demos.select(which);
-        let bar = indicatif::ProgressBar::new((sel.len() * grid.scales.len()) as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "  {msg} [{bar:30}] {pos}/{len} (demo, scale) tasks {elapsed}",
-            )
-            .expect("static template")
-            .progress_chars("=> "),
-        );
-        bar.set_message(format!("augmenting {label}"));
-        let t = std::time::Instant::now();
-        let set = augmenter.augment(&sel, grid, &|| bar.inc(1));
-        bar.finish_and_clear();
-        (set, t.elapsed().as_secs_f64())
-    };
-    let (train, train_secs) = if splits.train {
-        run("train", &aug.train, &demos.train)
-    } else {
-        (AugmentedSet::default(), 0.0)
-    };
-    let (test, test_secs) = if splits.test {
-        run("test", &aug.test, &demos.test)
-    } else {
-        (AugmentedSet::default(), 0.0)
-    };
-    let reference = if splits.reference {
-        run("reference", &aug.test, &demos.train).0
-    } else {
-        AugmentedSet::default()
-    };
-    Ok(Pipeline {
-        demos,
-        train,
-        test,
-        reference,
-        train_secs,
-        test_secs,
-    })
+) -> anyhow::Result<crossym::pipeline::Pipeline> {
+    Ok(crossym::pipeline::build(cfg, kin, splits, &progress_bar())?)
 }
 
 /// A file's name for a figure title (the whole path when it has none).
@@ -631,62 +513,6 @@ fn file_name(p: &std::path::Path) -> String {
         || p.display().to_string(),
         |f| f.to_string_lossy().into_owned(),
     )
-}
-
-/// Up to `max` augmented trajectories of demonstration `demo` that sub-group
-/// `SubGroup::ALL[gi]` adds to the previous one (rotations, then scalings, then the
-/// reflection; all of it for the first), evenly strided, and a caption naming the set and
-/// the ranges of `θ` and `λ` shown.
-fn figure_conditions(
-    set: &crossym::data::augmentation::AugmentedSet,
-    gi: usize,
-    demo: Option<usize>,
-    max: usize,
-) -> (Vec<&crossym::data::augmentation::Augmented>, String) {
-    use crossym::data::augmentation::SubGroup;
-    let g = SubGroup::ALL[gi];
-    let all: Vec<_> = set
-        .subset(g)
-        .into_iter()
-        .filter(|a| Some(a.traj.demo) == demo)
-        .collect();
-    let new: Vec<_> = match gi.checked_sub(1) {
-        Some(prev) => all
-            .iter()
-            .copied()
-            .filter(|a| !SubGroup::ALL[prev].contains(&a.condition))
-            .collect(),
-        None => all.clone(),
-    };
-    let sel = if new.is_empty() { all } else { new };
-    let stride = sel.len().div_ceil(max.max(1)).max(1);
-    let shown: Vec<_> = sel.into_iter().step_by(stride).collect();
-    let range = |f: &dyn Fn(&Condition) -> f64, unit: &str| {
-        let (lo, hi) = shown
-            .iter()
-            .map(|a| f(&a.condition))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            });
-        let r = crossym::eval::plot::signed;
-        if hi - lo < 1e-9 {
-            format!("{}{unit}", r(lo))
-        } else {
-            format!("{}…{}{unit}", r(lo), r(hi))
-        }
-    };
-    let mut label = format!(
-        "{}: {} condition{}, θ {}, λ {}",
-        g.label(),
-        shown.len(),
-        if shown.len() == 1 { "" } else { "s" },
-        range(&|c| c.theta.to_degrees(), "°"),
-        range(&|c| c.scale, "")
-    );
-    if shown.iter().any(|a| a.condition.reflection < 0) {
-        label.push_str(", σ = −1");
-    }
-    (shown, label)
 }
 
 fn augment(path: &PathBuf, plot: Option<&std::path::Path>) -> anyhow::Result<ExitCode> {
@@ -703,9 +529,12 @@ fn augment(path: &PathBuf, plot: Option<&std::path::Path>) -> anyhow::Result<Exi
         },
     )?;
     println!(
-        "tracked {} demonstrations of {} samples; max tracking error {:.3e} (task units)",
+        "{} demonstrations from {} source(s) ({} train, {} test; {} samples each on average); max tracking error {:.3e} (task units)",
         p.demos.demos.len(),
-        p.demos.demos.first().map_or(0, |d| d.len()),
+        p.demos.sources.len(),
+        p.demos.train.len(),
+        p.demos.test.len(),
+        p.demos.demos.iter().map(|d| d.len()).sum::<usize>() / p.demos.demos.len().max(1),
         p.demos.max_tracking_error
     );
     println!(
@@ -776,7 +605,8 @@ fn augment(path: &PathBuf, plot: Option<&std::path::Path>) -> anyhow::Result<Exi
             .context("no training demonstration to plot")?;
         let panels: Vec<PathPanel> = (0..SubGroup::ALL.len())
             .map(|gi| {
-                let (shown, label) = figure_conditions(&p.train, gi, first, 8);
+                let (shown, label) =
+                    crossym::pipeline::figures::figure_conditions(&p.train, gi, first, 8);
                 PathPanel {
                     m: kin.task_dim(),
                     arm_dim: kin.chains().first().map_or(2, |c| c.task.dim()),
@@ -835,30 +665,15 @@ fn train(
         kin,
         Splits {
             train: true,
-            test: false,
-            reference: false,
+            ..Splits::default()
         },
     )?;
-    let data: Vec<_> = p
-        .train
-        .subset(g)
-        .into_iter()
-        .map(|a| (&a.traj, a.condition))
-        .collect();
     println!(
         "training on {} trajectories of {} ({} iterations)",
-        data.len(),
+        p.train.subset(g).len(),
         g.label(),
         tc.iterations
     );
-    let symmetry = serde_json::json!({
-        "group": g.label(),
-        "order": cfg.composition.order,
-        "grid": cfg.augmentation.as_ref().map(|a| serde_json::to_value(&a.train).unwrap_or_default()),
-    });
-    let meta = crossym::policy::PolicyMeta::new(&kin.robot, kin.joint_names().to_vec(), symmetry);
-    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
-    let features = task_features_for(&cfg, kin, &built, &tc, g)?;
     let bar = indicatif::ProgressBar::new(tc.iterations as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -871,22 +686,22 @@ fn train(
     let mut log = String::from("iteration,loss,learning_rate\n");
     let tenth = tc.iterations.div_ceil(10).max(1);
     let mut next_line = tenth;
-    let (policy, report) =
-        crossym::policy::train_with_features(&data, &tc, meta, features, |it, loss| {
-            let lr = tc.lr_schedule.at(tc.learning_rate, it - 1, tc.iterations);
-            log.push_str(&format!("{it},{loss:e},{lr:e}\n"));
-            bar.set_position(it as u64);
-            bar.set_message(format!("{loss:.4e}"));
-            if it >= next_line || it == tc.iterations {
-                bar.suspend(|| {
-                    println!(
-                        "  iteration {it}/{}: loss {loss:.4e}, lr {lr:.2e}",
-                        tc.iterations
-                    )
-                });
-                next_line = it + tenth;
-            }
-        })?;
+    let trained = crossym::pipeline::train(&cfg, kin, &p, g, &tc, |it, loss| {
+        let lr = tc.lr_schedule.at(tc.learning_rate, it - 1, tc.iterations);
+        log.push_str(&format!("{it},{loss:e},{lr:e}\n"));
+        bar.set_position(it as u64);
+        bar.set_message(format!("{loss:.4e}"));
+        if it >= next_line || it == tc.iterations {
+            bar.suspend(|| {
+                println!(
+                    "  iteration {it}/{}: loss {loss:.4e}, lr {lr:.2e}",
+                    tc.iterations
+                )
+            });
+            next_line = it + tenth;
+        }
+    })?;
+    let (policy, report) = (trained.policy, trained.report);
     bar.finish_and_clear();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -906,10 +721,7 @@ fn train(
     Ok(ExitCode::SUCCESS)
 }
 
-fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<ExitCode> {
-    use crossym::data::augmentation::SubGroup;
-    use crossym::eval::plot::{write_paths_grid, PathFigure, PathPanel, XY_VIEW};
-    use std::fmt::Write as _;
+fn eval(path: &PathBuf, policies: &[String], out: &std::path::Path) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(path)?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
@@ -938,246 +750,25 @@ fn eval(path: &PathBuf, policies: &[String], out: &PathBuf) -> anyhow::Result<Ex
     };
     let mut loaded = Vec::new();
     for (label, file) in specs {
-        loaded.push((label, load_policy_for(kin, &file)?));
+        loaded.push((label, crossym::pipeline::load_policy_for(kin, &file)?));
     }
     let p = pipeline(
         &cfg,
         kin,
         Splits {
-            train: false,
             test: true,
             reference: true,
+            ..Splits::default()
         },
     )?;
-    let aug = cfg.augmentation.as_ref().expect("checked by pipeline");
-    let m = kin.task_dim();
-    let header = "| Policy | Original | G_R | G_RT | G_MRT |\n|---|---|---|---|---|\n";
-    // Per-coordinate rows (primary) and Euclidean rows, filled side by side.
-    let (mut md, mut md_euclid) = (String::from(header), String::from(header));
-    let mut csv = String::from(
-        "policy,test_set,mean_rmse,std_rmse,count,diverged,mean_rmse_per_coordinate,std_rmse_per_coordinate\n",
-    );
-    let cell_text = |c: &crossym::eval::Cell| {
-        format!(
-            " {:.3} ± {:.3}{} |",
-            c.mean,
-            c.std,
-            if c.diverged > 0 {
-                format!(" ({} div.)", c.diverged)
-            } else {
-                String::new()
-            }
-        )
-    };
-    let chain_cols: Vec<String> = kin
-        .chains()
-        .iter()
-        .map(|c| format!("mean_rmse_{}", c.name))
-        .collect();
-    let mut per_cond = format!(
-        "policy,theta_deg,scale,reflection,mean_rmse,std_rmse,count,diverged,{}\n",
-        chain_cols.join(",")
-    );
-    let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
-    let view = cfg.eval.view.unwrap_or(XY_VIEW);
-    let first_demo = p.demos.test.first().copied();
-    // One table row per scorer: a policy, or a reference built from the training demos.
-    let mut add_row = |label: &str, cells: &[Option<crossym::eval::Cell>]| {
-        let (mut row, mut row_e) = (format!("| {label} |"), format!("| {label} |"));
-        for (g, c) in SubGroup::ALL.iter().zip(cells) {
-            let Some(c) = c.filter(|c| c.count > 0) else {
-                row.push_str(" – |");
-                row_e.push_str(" – |");
-                let _ = writeln!(csv, "{label},{},,,0,0,,", g.label());
-                continue;
-            };
-            let pc = c.per_coordinate(m);
-            row.push_str(&cell_text(&pc));
-            row_e.push_str(&cell_text(&c));
-            let _ = writeln!(
-                csv,
-                "{label},{},{},{},{},{},{},{}",
-                g.label(),
-                c.mean,
-                c.std,
-                c.count,
-                c.diverged,
-                pc.mean,
-                pc.std
-            );
-        }
-        println!("{row}");
-        for (table, r) in [(&mut md, row), (&mut md_euclid, row_e)] {
-            table.push_str(&r);
-            table.push('\n');
-        }
-    };
-    // Each test trajectory rolled out once per policy: its score and per-arm RMSE, from
-    // which the sub-group cells and the per-condition rows are aggregated.
-    let scored: Vec<Vec<(crossym::eval::RolloutScore, Vec<f64>)>> = loaded
-        .iter()
-        .map(|(_, policy)| {
-            use rayon::prelude::*;
-            p.test
-                .trajectories
-                .par_iter()
-                .map(|a| {
-                    let path = crossym::eval::rollout_path(policy, kin, &a.traj, &a.condition);
-                    (
-                        crossym::eval::score_path(&a.traj, &path, &cfg.eval),
-                        crossym::eval::chain_rmse(kin, &a.traj, &path),
-                    )
-                })
-                .collect()
-        })
-        .collect();
-    let cell_where = |pi: usize, keep: &dyn Fn(&crossym::symmetry::compose::Condition) -> bool| {
-        let scores: Vec<_> = p
-            .test
-            .trajectories
-            .iter()
-            .zip(&scored[pi])
-            .filter(|(a, _)| keep(&a.condition))
-            .map(|(_, (sc, _))| *sc)
-            .collect();
-        crossym::eval::Cell::from_scores(&scores)
-    };
-    for (pi, (label, _)) in loaded.iter().enumerate() {
-        let cells: Vec<_> = SubGroup::ALL
-            .iter()
-            .map(|g| Some(cell_where(pi, &|c| g.contains(c))))
-            .collect();
-        add_row(label, &cells);
-    }
-    // References: each test trajectory against the training demos under its condition.
-    let mut nearest = Vec::new();
-    let mut mean = Vec::new();
-    for g in SubGroup::ALL {
-        let (mut sn, mut sm) = (Vec::new(), Vec::new());
-        for t in p.test.subset(g) {
-            let refs: Vec<_> = p
-                .reference
-                .trajectories
-                .iter()
-                .filter(|r| r.condition == t.condition)
-                .map(|r| &r.traj)
-                .collect();
-            if let Some((n, a)) = crossym::eval::demo_reference(&t.traj, &refs) {
-                let score = |rmse| crossym::eval::RolloutScore {
-                    rmse,
-                    diverged: false,
-                };
-                sn.push(score(n));
-                sm.push(score(a));
-            }
-        }
-        nearest.push(Some(crossym::eval::Cell::from_scores(&sn)));
-        mean.push(Some(crossym::eval::Cell::from_scores(&sm)));
-    }
-    add_row("reference: nearest training demo", &nearest);
-    add_row("reference: mean of training demos", &mean);
-    for (pi, (label, policy)) in loaded.iter().enumerate() {
-        // Per condition (over the test demonstrations).
-        for cond in aug.test.conditions() {
-            let c = cell_where(pi, &|c| *c == cond);
-            if c.count == 0 {
-                continue;
-            }
-            // Per-arm RMSE, mean over the condition's test trajectories.
-            let mut arms = vec![0.0; kin.chains().len()];
-            for (_, (_, per_arm)) in p
-                .test
-                .trajectories
-                .iter()
-                .zip(&scored[pi])
-                .filter(|(a, _)| a.condition == cond)
-            {
-                for (a, r) in arms.iter_mut().zip(per_arm) {
-                    *a += r / c.count as f64;
-                }
-            }
-            let arms: Vec<String> = arms.iter().map(|a| a.to_string()).collect();
-            let _ = writeln!(
-                per_cond,
-                "{label},{},{},{},{},{},{},{},{}",
-                cond.theta.to_degrees(),
-                cond.scale,
-                cond.reflection,
-                c.mean,
-                c.std,
-                c.count,
-                c.diverged,
-                arms.join(",")
-            );
-        }
-        // Figure: one panel per test set, up to 6 conditions on the first test demo, taken
-        // from what the set adds to the previous one (rotations, then scalings, then the
-        // reflection).
-        let panels: Vec<PathPanel> = SubGroup::ALL
-            .iter()
-            .enumerate()
-            .map(|(gi, _)| {
-                let (shown, label) = figure_conditions(&p.test, gi, first_demo, 6);
-                PathPanel {
-                    m: kin.task_dim(),
-                    arm_dim,
-                    view,
-                    label,
-                    paths: shown
-                        .iter()
-                        .map(|a| {
-                            let exe =
-                                crossym::eval::rollout_path(policy, kin, &a.traj, &a.condition);
-                            (a.traj.x.clone(), exe)
-                        })
-                        .collect(),
-                }
-            })
-            .filter(|panel| !panel.paths.is_empty())
-            .collect();
-        if !panels.is_empty() {
-            std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-            let png = out.join(format!("trajectories_{label}.png"));
-            let fig = PathFigure {
-                executed_name: format!("rollout of {label}"),
-                nominal_name: "nominal (test demonstration under the condition)".into(),
-                ..PathFigure::for_robot(
-                    format!(
-                        "Table II test sets: {label} on {}, test demonstration {}",
-                        kin.robot,
-                        first_demo.map_or_else(|| "–".into(), |d| d.to_string())
-                    ),
-                    kin,
-                    &cfg.eval,
-                )
-            };
-            write_paths_grid(&png, &fig, &panels, panels.len(), 400).map_err(anyhow::Error::msg)?;
-        }
-    }
-    let _ = write!(
-        md,
-        "\nRMSE per coordinate (task units) between the policy rollout and the nominal \
-         trajectory from the same initial configuration, `√(mean over samples and the {m} \
-         task coordinates of the squared error)`, mean ± std over the test trajectories \
-         (diverged rollouts included and counted). The reference rows involve no policy: \
-         each test trajectory against the training demonstrations transformed by the same \
-         condition (the nearest one; their sample-wise mean).\n\n\
-         The same in the Euclidean convention, `√(mean over samples of ‖x̂ − x‖²)` with all \
-         arms stacked (= per coordinate × √{m}):\n\n{md_euclid}\n\
-         Figures `trajectories_<policy>.png`: one \
-         panel per test set (Original, G_R, G_RT, G_MRT), up to 6 of the conditions it adds \
-         to the previous set (rotations, scalings, reflection) on the first test \
-         demonstration; grey nominal, colour rollout (blue left arm, red right).\n",
-    );
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    std::fs::write(out.join("table2.md"), &md)?;
-    std::fs::write(out.join("table2.csv"), &csv)?;
-    std::fs::write(out.join("conditions.csv"), &per_cond)?;
+    let files =
+        crossym::pipeline::table2::table2(&cfg, kin, &loaded, &p, out, |row| println!("{row}"))?;
     println!(
-        "wrote {}, {}, {} and trajectories_*.png",
-        out.join("table2.md").display(),
-        out.join("table2.csv").display(),
-        out.join("conditions.csv").display()
+        "wrote {}, {}, {} and {} figure(s) (trajectories_*.png)",
+        files.markdown.display(),
+        files.csv.display(),
+        files.conditions.display(),
+        files.figures.len()
     );
     Ok(ExitCode::SUCCESS)
 }

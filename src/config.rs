@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::data::augmentation::AugmentationConfig;
+use crate::data::demonstrations::DemonstrationsConfig;
 use crate::data::letters::LetterTaskConfig;
 use crate::eval::EvalConfig;
 use crate::kinematics::{ChainSpec, Kinematics, KinematicsError, KinematicsSettings, RobotModel};
@@ -129,12 +130,13 @@ pub struct Config {
     /// Where conditions are tested numerically (`[check]`).
     #[serde(default)]
     pub check: CheckConfig,
-    /// The letter task's demonstrations (`[letters]`).
+    /// Demonstrations (`[demonstrations]`: letters, reaches, recordings, CSV files).
     #[serde(default)]
-    pub letters: Option<LetterTaskConfig>,
-    /// Recorded demonstrations (`[demonstrations]`, rosbag2 sources).
-    #[serde(default)]
-    pub demonstrations: Option<crate::data::recorded::DemonstrationsConfig>,
+    pub demonstrations: Option<DemonstrationsConfig>,
+    /// A legacy `[letters]` section, converted into `demonstrations` when the file is
+    /// parsed (so always `None` afterwards).
+    #[serde(default, rename = "letters", skip_serializing)]
+    legacy_letters: Option<LetterTaskConfig>,
     /// Augmentation grids (`[augmentation]`).
     #[serde(default)]
     pub augmentation: Option<AugmentationConfig>,
@@ -178,6 +180,17 @@ impl Config {
             message: e.to_string(),
         })?;
         cfg.path = path.to_path_buf();
+        if let Some(l) = cfg.legacy_letters.take() {
+            if cfg.demonstrations.is_some() {
+                return Err(ConfigError::Parse {
+                    path: path.to_path_buf(),
+                    message: "both [letters] and [demonstrations]: [letters] is the old \
+                              name of a [demonstrations] source; keep one"
+                        .into(),
+                });
+            }
+            cfg.demonstrations = Some(DemonstrationsConfig::from_letters(&l));
+        }
         if let Some(d) = &cfg.demonstrations {
             d.validate().map_err(|m| ConfigError::Parse {
                 path: path.to_path_buf(),
@@ -204,6 +217,21 @@ impl Config {
             n.policy = Some(self.resolve(p));
         }
         n
+    }
+
+    /// Loads the demonstrations of `[demonstrations]` for `kin` (paths relative to this
+    /// file); an error naming the file when the section is absent.
+    pub fn load_demonstrations(
+        &self,
+        kin: &Kinematics,
+    ) -> Result<crate::data::demonstrations::Demonstrations, crate::data::DataError> {
+        let d = self
+            .demonstrations
+            .as_ref()
+            .ok_or_else(|| crate::data::DataError::Invalid {
+                message: format!("{}: no [demonstrations] section", self.path.display()),
+            })?;
+        crate::data::demonstrations::Demonstrations::load(d, |p| self.resolve(p), kin)
     }
 
     /// Loads the robot of `[robot]` with the `[kinematics]` settings.

@@ -15,7 +15,9 @@
 //!   inference, CONDOR-style training (candle), safetensors + JSON persistence.
 //! - [`safety`]: the QP joint-limit safety filter (Clarabel).
 //! - [`ros`]: the ROS 2 node without DDS: message mirrors, `.msg` parser, control-tick core.
-//! - [`data`]: LASA letter demonstrations (CSV or original MAT v5 files) and a MAT v5 reader.
+//! - [`data`]: demonstrations from every source (LASA letters, reaches, rosbag2 recordings,
+//!   CSV) and the readers behind them.
+//! - [`pipeline`]: demonstrations → augmentation → training → evaluation, as library calls.
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
@@ -26,6 +28,7 @@ pub mod config;
 pub mod data;
 pub mod eval;
 pub mod kinematics;
+pub mod pipeline;
 pub mod policy;
 pub mod ros;
 pub mod safety;

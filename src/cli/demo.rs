@@ -19,10 +19,10 @@ use crossym::symmetry::compose::Condition;
 /// Options of `crossym demo`.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
-    /// Config file (TOML) with [robot], [letters], [[symmetries]], [composition], [node].
+    /// Config file (TOML) with [robot], [demonstrations], [[symmetries]], [composition], [node].
     #[arg(long, short, default_value = "config/letters.toml")]
     pub config: PathBuf,
-    /// Test demonstration to draw (1-based; default: the first of `[letters] test`).
+    /// Test demonstration to draw (1-based; default: the first of `[demonstrations] test`).
     #[arg(long)]
     pub demo: Option<usize>,
     /// Conditions `theta_rad:scale:reflection`, repeatable; default: original, rotated
@@ -163,7 +163,7 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
     let demos = super::letter_demos(&cfg, kin)?;
-    let demo = super::pick_demo(&demos, a.demo)?;
+    let demo = crossym::pipeline::pick_demo(&demos, a.demo)?;
     let which = demo.demo;
     let policy_path = node_cfg
         .policy

@@ -1,6 +1,7 @@
-//! `crossym demos`: the recorded demonstrations of `[demonstrations]`, read and cleaned,
-//! one report line per source (and per segment), figures of the joint trajectories and
-//! task-space paths.
+//! `crossym demos`: the demonstrations of `[demonstrations]` (any source) loaded, one report
+//! line per source and per demonstration (number, name, role, duration, peak joint speed,
+//! smallest limit margin), figures of the task-space paths and the first demonstration's
+//! joint positions.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -8,7 +9,10 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use crossym::config::Config;
-use crossym::data::recorded::load_sources;
+use crossym::data::demonstrations::{
+    load_each, Demonstrations, DemonstrationsConfig, Pick, SourceDemos, SourceDetail,
+};
+use crossym::data::letters::JointTrajectory;
 use crossym::eval::plot::{
     write_curves_png, write_paths_grid, CurveFigure, PathFigure, PathPanel, XY_VIEW,
 };
@@ -23,6 +27,29 @@ pub struct DemosArgs {
     /// `demos_joints.png` (joint positions of the first demonstration against time).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+}
+
+/// Peak joint speed (value, joint) and smallest margin to a position limit (value, joint;
+/// negative: outside) of a demonstration.
+fn peak_and_margin(
+    d: &JointTrajectory,
+    limits: &[crossym::kinematics::JointLimits],
+) -> ((f64, usize), Option<(f64, usize)>) {
+    let mut peak = (0.0f64, 0usize);
+    let mut margin: Option<(f64, usize)> = None;
+    for i in 0..d.len() {
+        for (j, (v, q)) in d.qdot(i).iter().zip(d.q(i)).enumerate() {
+            if v.abs() > peak.0 {
+                peak = (v.abs(), j);
+            }
+            let l = &limits[j];
+            let m = (q - l.lower).min(l.upper - q);
+            if m.is_finite() && margin.is_none_or(|(b, _)| m < b) {
+                margin = Some((m, j));
+            }
+        }
+    }
+    (peak, margin)
 }
 
 /// `crossym demos`. Exits 1 when a source was refused.
@@ -42,106 +69,145 @@ pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
         kin.dof(),
         kin.robot
     );
-    let loaded = load_sources(dcfg, |p| cfg.resolve(p), kin);
-    let mut refused = 0;
-    let mut all = Vec::new();
-    for (name, r) in &loaded {
-        match r {
-            Err(e) => {
-                refused += 1;
-                println!("{name}: REFUSED: {e}");
-            }
-            Ok(s) => {
-                let rep = &s.report;
+    let loaded = load_each(dcfg, |p| cfg.resolve(p), kin);
+    let refused = loaded.iter().filter(|(_, r)| r.is_err()).count();
+    for (_, r) in &loaded {
+        if let Err(e) = r {
+            println!("REFUSED: {e}");
+        }
+    }
+    let ok: Vec<SourceDemos> = loaded.into_iter().filter_map(|(_, r)| r.ok()).collect();
+    // Numbers and roles (when every source loaded, the selection is checked too).
+    let all = if refused == 0 {
+        Demonstrations::from_sources(dcfg, ok)?
+    } else {
+        let mut d = Demonstrations::from_sources(
+            &DemonstrationsConfig {
+                train: Vec::new(),
+                test: Vec::new(),
+                ..dcfg.clone()
+            },
+            ok,
+        )?;
+        d.train.clear();
+        d.test.clear();
+        d
+    };
+    let mut number = 1;
+    for s in &all.sources {
+        match &s.detail {
+            SourceDetail::Tracked { max_tracking_error } => println!(
+                "{} ({}): {} demonstration{} tracked into joint space, max tracking error {:.3e} (task units)",
+                s.name,
+                s.kind.label(),
+                s.demos.len(),
+                if s.demos.len() == 1 { "" } else { "s" },
+                max_tracking_error
+            ),
+            SourceDetail::Recorded(r) => {
+                let rep = &r.report;
                 println!(
-                    "{name}: {} ({} samples over {:.2} s, largest stamp step {:.1} ms) → {} demonstration{}, idle trimmed {:.2} s / {:.2} s; peak speed {:.3} ({}); {}{}",
-                    s.file.display(),
-                    s.raw.0,
-                    s.raw.1,
+                    "{} ({}): {} ({} samples over {:.2} s, largest stamp step {:.1} ms) → {} demonstration{}, idle trimmed {:.2} s / {:.2} s{}",
+                    s.name,
+                    s.kind.label(),
+                    r.file.display(),
+                    r.raw.0,
+                    r.raw.1,
                     rep.max_gap_s * 1e3,
                     rep.segments,
                     if rep.segments == 1 { "" } else { "s" },
                     rep.trimmed_s.0,
                     rep.trimmed_s.1,
-                    rep.peak_speed.0,
-                    names[rep.peak_speed.1],
-                    rep.min_margin.map_or_else(String::new, |(m, j)| format!(
-                        "smallest limit margin {m:.3} ({})",
-                        names[j]
-                    )),
                     if rep.outside_limits > 0 {
                         format!("; {} samples OUTSIDE the joint limits", rep.outside_limits)
                     } else {
                         String::new()
                     }
                 );
-                if !s.ignored.is_empty() {
-                    println!("  ignored joints: {}", s.ignored.join(", "));
-                }
-                for (dn, d) in &s.demos {
-                    let role = if dcfg.test.iter().any(|t| t == dn || t == &s.name) {
-                        "test"
-                    } else if dcfg.train.iter().any(|t| t == dn || t == &s.name) {
-                        "train"
-                    } else {
-                        "unused"
-                    };
-                    println!(
-                        "  {dn}: {} samples, {:.2} s from t = {:.2} s ({role})",
-                        d.len(),
-                        (d.len().max(1) - 1) as f64 * d.dt,
-                        d.start_s
-                    );
-                    all.push((dn, d));
+                if !r.ignored.is_empty() {
+                    println!("  ignored joints: {}", r.ignored.join(", "));
                 }
             }
         }
+        for (k, (dn, d)) in s.demos.iter().enumerate() {
+            // With a refused source numbers shift: roles by name only.
+            let named = |picks: &[Pick]| {
+                picks
+                    .iter()
+                    .any(|p| matches!(p, Pick::Name(n) if n == dn || *n == s.name))
+            };
+            let role = if refused > 0 {
+                if named(&dcfg.test) {
+                    "test"
+                } else if named(&dcfg.train) {
+                    "train"
+                } else {
+                    "–"
+                }
+            } else if all.test.contains(&number) {
+                "test"
+            } else if all.train.contains(&number) {
+                "train"
+            } else {
+                "unused"
+            };
+            let start = match &s.detail {
+                SourceDetail::Recorded(r) => format!(" from t = {:.2} s", r.starts_s[k]),
+                SourceDetail::Tracked { .. } => String::new(),
+            };
+            let (peak, margin) = peak_and_margin(d, kin.limits());
+            println!(
+                "  {number:>3} {dn}: {} samples, {:.2} s{start} ({role}); peak speed {:.3} ({}){}",
+                d.len(),
+                (d.len().max(1) - 1) as f64 * d.dt,
+                peak.0,
+                names[peak.1],
+                margin.map_or_else(String::new, |(m, j)| format!(
+                    ", smallest limit margin {m:.3} ({})",
+                    names[j]
+                )),
+            );
+            number += 1;
+        }
     }
     if let Some(dir) = &a.plot {
-        anyhow::ensure!(!all.is_empty(), "no demonstration to plot");
+        anyhow::ensure!(!all.demos.is_empty(), "no demonstration to plot");
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let mut ws = kin.workspace();
         let m = kin.task_dim();
         let panels: Vec<PathPanel> = all
+            .demos
             .iter()
-            .map(|(dn, d)| {
-                let mut x = Vec::with_capacity(d.len() * m);
-                for q in d.q.chunks_exact(d.n) {
-                    x.extend_from_slice(kin.forward(q, &mut ws).as_slice());
-                }
+            .map(|d| {
                 PathPanel::single(
                     m,
                     kin.chains().first().map_or(2, |c| c.task.dim()),
                     cfg.eval.view.unwrap_or(XY_VIEW),
                     Vec::new(),
-                    x,
-                    format!("{dn}: {:.2} s", (d.len().max(1) - 1) as f64 * d.dt),
+                    d.x.clone(),
+                    format!(
+                        "{} {}: {:.2} s",
+                        d.demo,
+                        all.name(d.demo),
+                        (d.len().max(1) - 1) as f64 * d.dt
+                    ),
                 )
             })
             .collect();
         let fig = PathFigure {
-            executed_name: "recorded (FK of the clean joint path)".into(),
-            ..PathFigure::for_robot(
-                format!("Recorded demonstrations on {}", kin.robot),
-                kin,
-                &cfg.eval,
-            )
+            executed_name: "demonstration (FK of the joint path)".into(),
+            ..PathFigure::for_robot(format!("Demonstrations on {}", kin.robot), kin, &cfg.eval)
         };
         let task = dir.join("demos_task.png");
         write_paths_grid(&task, &fig, &panels, panels.len().min(4), 360)
             .map_err(anyhow::Error::msg)?;
-        let (first, d) = &all[0];
+        let d = &all.demos[0];
         let curves: Vec<Vec<(f64, f64)>> = (0..d.n)
-            .map(|j| {
-                (0..d.len())
-                    .map(|k| (d.start_s + k as f64 * d.dt, d.q[k * d.n + j]))
-                    .collect()
-            })
+            .map(|j| (0..d.len()).map(|k| (k as f64 * d.dt, d.q(k)[j])).collect())
             .collect();
         let joints = dir.join("demos_joints.png");
         let cfig = CurveFigure {
-            title: format!("Demonstration {first}: joint positions after cleaning"),
-            x_desc: "time since the recording's first stamp (s)".into(),
+            title: format!("Demonstration 1 ({}): joint positions", all.name(1)),
+            x_desc: "time since the demonstration's start (s)".into(),
             y_desc: "joint position (rad or m)".into(),
             names: names.to_vec(),
             categorical: true,

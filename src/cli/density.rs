@@ -16,7 +16,7 @@ use crossym::eval::plot::{curve_colour, write_curves_png, CurveFigure};
 /// Arguments of `crossym density`.
 #[derive(Debug, Args)]
 pub struct DensityArgs {
-    /// Config file (TOML) with [letters], [[symmetries]], [composition], [train].
+    /// Config file (TOML) with [demonstrations], [[symmetries]], [composition], [train].
     #[arg(long, short)]
     pub config: PathBuf,
     /// Training rotation steps Δθ (degrees).
@@ -89,7 +89,7 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             kin.joint_names().to_vec(),
             serde_json::json!({ "group": "G_R", "rotation_step_deg": step }),
         );
-        let features = super::task_features_for(
+        let features = crossym::pipeline::task_features_for(
             &cfg,
             kin,
             &built,

@@ -16,7 +16,7 @@ use crossym::eval::{rollout, score_path, RolloutStatus};
 /// Options of `crossym rollout`.
 #[derive(Debug, clap::Args)]
 pub struct RolloutArgs {
-    /// Config file (TOML) with [robot]; [letters], [[symmetries]] and [composition] for
+    /// Config file (TOML) with [robot]; [demonstrations], [[symmetries]] and [composition] for
     /// `--demo`; [node] policy when no `--policy` is given.
     #[arg(long, short, default_value = "config/letters.toml")]
     pub config: PathBuf,
@@ -27,7 +27,7 @@ pub struct RolloutArgs {
     #[arg(long, default_value = "0:1:1", allow_hyphen_values = true)]
     pub condition: String,
     /// Start from this demonstration (1-based) transformed by the condition, and score the
-    /// rollout against it; default (without `--q`): the first of `[letters] test`.
+    /// rollout against it; default (without `--q`): the first of `[demonstrations] test`.
     #[arg(long, conflicts_with = "q")]
     pub demo: Option<usize>,
     /// Start configuration (rad or m), comma-separated, in the robot's joint order.
@@ -65,7 +65,7 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
                 )
             })?,
     };
-    let policy = super::load_policy_for(kin, &policy_path)?;
+    let policy = crossym::pipeline::load_policy_for(kin, &policy_path)?;
     // The start state and, from a demonstration, the nominal trajectory.
     let (q0, nominal, label) = match &a.q {
         Some(q) => {
@@ -87,7 +87,7 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
         }
         None => {
             let demos = super::letter_demos(&cfg, kin)?;
-            let demo = super::pick_demo(&demos, a.demo)?;
+            let demo = crossym::pipeline::pick_demo(&demos, a.demo)?;
             let which = demo.demo;
             let aug = nominal_trajectories(&cfg, kin, demo, &[condition])
                 .map_err(anyhow::Error::msg)

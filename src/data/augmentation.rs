@@ -646,7 +646,7 @@ pub fn letter_augmenter<'a>(
 }
 
 /// The nominal trajectories of `demo` under each of `conditions` (the letter task of
-/// `cfg`: `[letters]`, `[[symmetries]]`, `[composition]`), in the order given.
+/// `cfg`: `[demonstrations]`, `[[symmetries]]`, `[composition]`), in the order given.
 ///
 /// Each is the demonstration transformed by eq. 23, as in the augmentation; an infeasible
 /// condition is an error naming its drop reason.

@@ -387,7 +387,6 @@ impl LetterTaskConfig {
         let (n, m) = (kin.dof(), kin.task_dim());
         let mut rest = vec![0.0; n];
         let mut targets: Vec<Vec<Vec<f64>>> = Vec::new(); // [demo][sample][m]
-        let mut kws = kin.workspace();
         let mut counts: Option<usize> = None;
         let mut rest_x: Vec<(usize, Vec<f64>)> = Vec::new();
         // Per-demonstration start postures: (demo index, first joint, joint values).
@@ -485,95 +484,14 @@ impl LetterTaskConfig {
                 "[letters] rest posture is outside the joint limits",
             ));
         }
-        // Tracking with damped least squares (identity metric, μ on J Jᵀ).
-        let dls = DampedPinv::new(Metric::identity(n), self.tracking_damping.sqrt(), 0.0)
-            .map_err(|e| invalid(e.to_string()))?;
-        let mut pws = dls.workspace(m);
         let [_, _, js, je] = self.drop;
-        if je == 0 {
-            return Err(invalid(
-                "[letters] drop[3] (joint end) must be ≥ 1: q̇ is a forward difference",
-            ));
-        }
-        let mut demos = Vec::new();
-        let mut max_err: f64 = 0.0;
-        let mut e = vec![0.0; m];
-        let mut dq = vec![0.0; n];
-        for (k, t) in targets.iter().enumerate() {
-            let mut q = rest.clone();
-            for (_, qo, v) in starts.iter().filter(|s| s.0 == k) {
-                q[*qo..*qo + v.len()].copy_from_slice(v);
-            }
-            if !kin.within_limits(&q) {
-                return Err(invalid(format!(
-                    "demo {}: start posture is outside the joint limits",
-                    k + 1
-                )));
-            }
-            for _ in 0..self.settle_iterations {
-                kin.jacobian(&q, &mut kws);
-                for r in 0..m {
-                    e[r] = t[0][r] - kws.x[r];
-                }
-                dls.factor(&kws.jac, &mut pws);
-                dls.solve(&mut pws, &e, &mut dq);
-                for (a, b) in q.iter_mut().zip(&dq) {
-                    *a += b;
-                }
-            }
-            let mut qs: Vec<f64> = Vec::with_capacity(t.len() * n);
-            let mut errs = Vec::with_capacity(t.len());
-            for target in t {
-                kin.jacobian(&q, &mut kws);
-                for r in 0..m {
-                    e[r] = target[r] - kws.x[r];
-                }
-                dls.factor(&kws.jac, &mut pws);
-                dls.solve(&mut pws, &e, &mut dq);
-                for (a, b) in q.iter_mut().zip(&dq) {
-                    *a += b;
-                }
-                let x = kin.forward(&q, &mut kws);
-                errs.push(
-                    x.iter()
-                        .zip(target)
-                        .map(|(a, b)| (a - b) * (a - b))
-                        .sum::<f64>()
-                        .sqrt(),
-                );
-                qs.extend_from_slice(&q);
-            }
-            let len = t.len();
-            if len <= js + je + 1 {
-                return Err(invalid(format!(
-                    "demo {}: too short after dropping samples",
-                    k + 1
-                )));
-            }
-            let keep = js..len - je;
-            let mut traj = JointTrajectory {
-                demo: k + 1,
-                n,
-                m,
-                dt: self.dt,
-                q: Vec::new(),
-                qdot: Vec::new(),
-                x: Vec::new(),
-            };
-            for i in keep.clone() {
-                let qi = &qs[i * n..(i + 1) * n];
-                let qn = &qs[(i + 1) * n..(i + 2) * n];
-                traj.q.extend_from_slice(qi);
-                traj.qdot
-                    .extend(qi.iter().zip(qn).map(|(a, b)| (b - a) / self.dt));
-                traj.x.extend(kin.forward(qi, &mut kws).iter());
-                max_err = max_err.max(errs[i]);
-            }
-            if traj.q.iter().chain(&traj.qdot).any(|v| !v.is_finite()) {
-                return Err(invalid(format!("demo {}: tracking diverged", k + 1)));
-            }
-            demos.push(traj);
-        }
+        let tracking = Tracking {
+            damping: self.tracking_damping,
+            settle_iterations: self.settle_iterations,
+            drop_joint: [js, je],
+            dt: self.dt,
+        };
+        let (demos, max_err) = track(kin, &rest, &starts, &targets, &tracking)?;
         for &d in self.train.iter().chain(&self.test) {
             if d == 0 || d > demos.len() {
                 return Err(invalid(format!(
@@ -589,4 +507,122 @@ impl LetterTaskConfig {
             test: self.test.clone(),
         })
     }
+}
+
+/// How task-space targets are tracked into joint space (`[letters]` / task sources).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Tracking {
+    /// Damping `μ` added to `J Jᵀ`.
+    pub damping: f64,
+    /// Damped-least-squares iterations towards the first target before tracking.
+    pub settle_iterations: usize,
+    /// Joint samples dropped at the start and at the end (the end ≥ 1: forward difference).
+    pub drop_joint: [usize; 2],
+    /// Sample period (s).
+    pub dt: f64,
+}
+
+/// Tracks `targets[demo][sample]` (full task vectors, task units) by one damped
+/// least-squares step per sample from `rest` (with per-demonstration `starts`: demo
+/// index, first joint, values), drops `tr.drop_joint` samples and differentiates forward;
+/// returns the demonstrations (numbered from 1) and the largest tracking error.
+pub(crate) fn track(
+    kin: &Kinematics,
+    rest: &[f64],
+    starts: &[(usize, usize, Vec<f64>)],
+    targets: &[Vec<Vec<f64>>],
+    tr: &Tracking,
+) -> Result<(Vec<JointTrajectory>, f64), DataError> {
+    let (n, m) = (kin.dof(), kin.task_dim());
+    let mut kws = kin.workspace();
+    // Tracking with damped least squares (identity metric, μ on J Jᵀ).
+    let dls = DampedPinv::new(Metric::identity(n), tr.damping.sqrt(), 0.0)
+        .map_err(|e| invalid(e.to_string()))?;
+    let mut pws = dls.workspace(m);
+    let [js, je] = tr.drop_joint;
+    if je == 0 {
+        return Err(invalid(
+            "drop[3] (joint end) must be ≥ 1: q̇ is a forward difference",
+        ));
+    }
+    let mut demos = Vec::new();
+    let mut max_err: f64 = 0.0;
+    let mut e = vec![0.0; m];
+    let mut dq = vec![0.0; n];
+    for (k, t) in targets.iter().enumerate() {
+        let mut q = rest.to_vec();
+        for (_, qo, v) in starts.iter().filter(|s| s.0 == k) {
+            q[*qo..*qo + v.len()].copy_from_slice(v);
+        }
+        if !kin.within_limits(&q) {
+            return Err(invalid(format!(
+                "demo {}: start posture is outside the joint limits",
+                k + 1
+            )));
+        }
+        for _ in 0..tr.settle_iterations {
+            kin.jacobian(&q, &mut kws);
+            for r in 0..m {
+                e[r] = t[0][r] - kws.x[r];
+            }
+            dls.factor(&kws.jac, &mut pws);
+            dls.solve(&mut pws, &e, &mut dq);
+            for (a, b) in q.iter_mut().zip(&dq) {
+                *a += b;
+            }
+        }
+        let mut qs: Vec<f64> = Vec::with_capacity(t.len() * n);
+        let mut errs = Vec::with_capacity(t.len());
+        for target in t {
+            kin.jacobian(&q, &mut kws);
+            for r in 0..m {
+                e[r] = target[r] - kws.x[r];
+            }
+            dls.factor(&kws.jac, &mut pws);
+            dls.solve(&mut pws, &e, &mut dq);
+            for (a, b) in q.iter_mut().zip(&dq) {
+                *a += b;
+            }
+            let x = kin.forward(&q, &mut kws);
+            errs.push(
+                x.iter()
+                    .zip(target)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f64>()
+                    .sqrt(),
+            );
+            qs.extend_from_slice(&q);
+        }
+        let len = t.len();
+        if len <= js + je + 1 {
+            return Err(invalid(format!(
+                "demo {}: too short after dropping samples",
+                k + 1
+            )));
+        }
+        let keep = js..len - je;
+        let mut traj = JointTrajectory {
+            demo: k + 1,
+            n,
+            m,
+            dt: tr.dt,
+            q: Vec::new(),
+            qdot: Vec::new(),
+            x: Vec::new(),
+        };
+        for i in keep.clone() {
+            let qi = &qs[i * n..(i + 1) * n];
+            let qn = &qs[(i + 1) * n..(i + 2) * n];
+            traj.q.extend_from_slice(qi);
+            traj.qdot
+                .extend(qi.iter().zip(qn).map(|(a, b)| (b - a) / tr.dt));
+            traj.x.extend(kin.forward(qi, &mut kws).iter());
+            max_err = max_err.max(errs[i]);
+        }
+        if traj.q.iter().chain(&traj.qdot).any(|v| !v.is_finite()) {
+            return Err(invalid(format!("demo {}: tracking diverged", k + 1)));
+        }
+        demos.push(traj);
+    }
+    Ok((demos, max_err))
 }

@@ -6,12 +6,15 @@
 //! - [`letters`]: letters placed in the robot's workspace and tracked into joint space.
 //! - [`augmentation`]: the lifted composed group applied to demonstrations (eq. 23).
 //! - [`recording`]: joint-state recordings from rosbag2 bags (MCAP, SQLite3) by joint name.
-//! - [`recorded`]: `[demonstrations]` bag sources read and cleaned, with a report.
+//! - [`demonstrations`]: `[demonstrations]`, one schema for every source (LASA letters,
+//!   reaches, rosbag2 recordings, CSV files), numbered and picked for training and testing.
+//! - [`recorded`]: recordings cleaned into demonstrations with task paths and a report.
 //! - [`clean`]: recordings → demonstrations (gaps, resampling, Savitzky–Golay velocities,
 //!   idle trimming, splitting, limit margins).
 
 pub mod augmentation;
 pub mod clean;
+pub mod demonstrations;
 pub mod lasa;
 pub mod letters;
 pub mod mat5;

@@ -23,14 +23,7 @@ fn demo_1_at(
     kin: &crossym::kinematics::Kinematics,
     keep: impl FnOnce(usize) -> Vec<usize>,
 ) -> JointTrajectory {
-    let mut d = cfg
-        .letters
-        .as_ref()
-        .unwrap()
-        .build(kin, &cfg.base_dir)
-        .unwrap()
-        .demos
-        .remove(0);
+    let mut d = cfg.load_demonstrations(kin).unwrap().demos.remove(0);
     let keep = keep(d.len());
     let pick = |v: &[f64], w: usize| -> Vec<f64> {
         keep.iter()
@@ -47,12 +40,7 @@ fn demo_1_at(
 fn letters_are_tracked_into_joint_space() {
     let cfg = letters_config();
     let robot = cfg.load_robot().unwrap();
-    let demos = cfg
-        .letters
-        .as_ref()
-        .unwrap()
-        .build(&robot.kinematics, &cfg.base_dir)
-        .unwrap();
+    let demos = cfg.load_demonstrations(&robot.kinematics).unwrap();
     assert_eq!(demos.demos.len(), 7);
     // 1000 LASA samples − 10 − 2 (task) − 10 − 1 (joint).
     assert!(demos
@@ -204,29 +192,24 @@ fn augmented_trajectories_draw_the_transformed_letters() {
 
 #[test]
 fn broken_letter_configs_are_refused_with_reasons() {
+    use crossym::data::demonstrations::Pick;
     let cfg = letters_config();
     let robot = cfg.load_robot().unwrap();
-    let mut bad = cfg.letters.clone().unwrap();
-    bad.arms[0].letter = Some("../data/lasa/missing.mat".into());
-    let e = bad.build(&robot.kinematics, &cfg.base_dir).unwrap_err();
+    let kin = &robot.kinematics;
+    let e = common::demos_with(&cfg, kin, |d| {
+        d.sources[0].arms[0].letter = Some("../data/lasa/missing.mat".into())
+    })
+    .unwrap_err();
     assert!(e.to_string().contains("missing.mat"), "{e}");
-    let mut bad = cfg.letters.clone().unwrap();
-    bad.arms[1].chain = "left".into();
-    assert!(bad
-        .build(&robot.kinematics, &cfg.base_dir)
-        .unwrap_err()
-        .to_string()
-        .contains("chain"));
-    let mut bad = cfg.letters.clone().unwrap();
-    bad.test = vec![9];
-    assert!(bad
-        .build(&robot.kinematics, &cfg.base_dir)
-        .unwrap_err()
-        .to_string()
-        .contains('9'));
-    let mut bad = cfg.letters.clone().unwrap();
-    bad.arms[0].rest = vec![0.0; 3];
-    assert!(bad.build(&robot.kinematics, &cfg.base_dir).is_err());
+    let e =
+        common::demos_with(&cfg, kin, |d| d.sources[0].arms[1].chain = "left".into()).unwrap_err();
+    assert!(e.to_string().contains("chain"), "{e}");
+    let e = common::demos_with(&cfg, kin, |d| d.test = vec![Pick::Number(9)]).unwrap_err();
+    assert!(e.to_string().contains('9'), "{e}");
+    let e =
+        common::demos_with(&cfg, kin, |d| d.test = vec![Pick::Name("lasa#8".into())]).unwrap_err();
+    assert!(e.to_string().contains("lasa#8"), "{e}");
+    assert!(common::demos_with(&cfg, kin, |d| d.sources[0].arms[0].rest = vec![0.0; 3]).is_err());
 }
 
 /// An orbit that stops partway (here: the flow runs out of its step budget before ±180°)

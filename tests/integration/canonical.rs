@@ -16,7 +16,7 @@ use crate::common;
 fn letter_features() -> (
     crossym::config::Config,
     crossym::config::LoadedRobot,
-    crossym::data::letters::LetterDemos,
+    crossym::data::demonstrations::Demonstrations,
     TaskFeatures,
 ) {
     let (cfg, robot, demos) = common::task("letters.toml");

@@ -7,6 +7,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crossym::config::{Config, LoadedRobot};
+use crossym::data::demonstrations::Demonstrations;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -157,17 +158,25 @@ pub fn dist(a: &[f64], b: &[f64]) -> f64 {
         .sqrt()
 }
 
-/// A shipped task config, its robot and its tracked demonstrations (`[letters]`).
-pub fn task(name: &str) -> (Config, LoadedRobot, crossym::data::letters::LetterDemos) {
+/// A shipped task config, its robot and its demonstrations (`[demonstrations]`).
+pub fn task(name: &str) -> (Config, LoadedRobot, Demonstrations) {
     let cfg = load_config(name);
     let robot = cfg.load_robot().expect("robot loads");
     let demos = cfg
-        .letters
-        .as_ref()
-        .expect("[letters]")
-        .build(&robot.kinematics, &cfg.base_dir)
-        .expect("demonstrations build");
+        .load_demonstrations(&robot.kinematics)
+        .expect("demonstrations load");
     (cfg, robot, demos)
+}
+
+/// The demonstrations of `cfg` after `edit` changed its `[demonstrations]` section.
+pub fn demos_with(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    edit: impl FnOnce(&mut crossym::data::demonstrations::DemonstrationsConfig),
+) -> Result<Demonstrations, crossym::data::DataError> {
+    let mut d = cfg.demonstrations.clone().expect("[demonstrations]");
+    edit(&mut d);
+    Demonstrations::load(&d, |p| cfg.resolve(p), kin)
 }
 
 /// The last 30 lines of a log file (for failure messages).
@@ -251,5 +260,52 @@ impl Drop for Proc {
             let _ = c.kill();
             let _ = c.wait();
         }
+    }
+}
+
+/// True when PyPI `cyclonedds` (the independent DDS peer's library) imports.
+pub fn python_has_cyclonedds() -> bool {
+    std::process::Command::new("python3")
+        .args(["-c", "import cyclonedds.domain"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false)
+}
+
+/// Waits until the file at `p` contains `needle`; false after `deadline`.
+pub fn wait_for_text(p: &Path, needle: &str, deadline: std::time::Duration) -> bool {
+    let t0 = std::time::Instant::now();
+    while t0.elapsed() < deadline {
+        if std::fs::read_to_string(p)
+            .unwrap_or_default()
+            .contains(needle)
+        {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    false
+}
+
+/// The first `crossym_msgs/Status` on `sub` for which `pred` holds, or `None` after
+/// `timeout` (polling every 5 ms).
+pub fn first_status(
+    sub: &ros2_client::Subscription<crossym::ros::msg::Status>,
+    timeout: std::time::Duration,
+    mut pred: impl FnMut(&crossym::ros::msg::Status) -> bool,
+) -> Option<crossym::ros::msg::Status> {
+    let deadline = std::time::Instant::now() + timeout;
+    loop {
+        while let Ok(Some((s, _))) = sub.take() {
+            if pred(&s) {
+                return Some(s);
+            }
+        }
+        if std::time::Instant::now() > deadline {
+            return None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
     }
 }

@@ -80,20 +80,9 @@ impl Watch {
     fn wait_status(
         &self,
         timeout: Duration,
-        mut pred: impl FnMut(&msg::Status) -> bool,
+        pred: impl FnMut(&msg::Status) -> bool,
     ) -> Option<msg::Status> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            while let Ok(Some((s, _))) = self.status.take() {
-                if pred(&s) {
-                    return Some(s);
-                }
-            }
-            if Instant::now() > deadline {
-                return None;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
+        common::first_status(&self.status, timeout, pred)
     }
 
     /// True once `n` consecutive joint states carry the same positions (the robot stands
@@ -190,12 +179,7 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
     let cfg = Config::from_file(&cfg_path).unwrap();
     let robot = cfg.load_robot().unwrap();
     let kin = &robot.kinematics;
-    let demos = cfg
-        .letters
-        .as_ref()
-        .unwrap()
-        .build(kin, &cfg.base_dir)
-        .unwrap();
+    let demos = cfg.load_demonstrations(kin).unwrap();
     let demo = demos.demos.iter().find(|d| d.demo == 6).unwrap();
     let conds = [
         Condition::IDENTITY,
@@ -382,21 +366,13 @@ fn closed_loop_position_mode() {
     closed_loop(62, "position", "pos");
 }
 
-fn python_has_cyclonedds() -> bool {
-    Command::new("python3")
-        .args(["-c", "import cyclonedds"])
-        .status()
-        .map(|s| s.success())
-        .unwrap_or(false)
-}
-
 /// An independent DDS implementation (Eclipse Cyclone DDS, from Python) talks to the node
 /// with ROS 2 type names and QoS: commands and status flow, bad input is rejected with a
 /// reason while commands stay finite and inside the limits, stale input gives zeros.
 #[test]
 fn independent_cyclonedds_peer() {
     assert!(
-        python_has_cyclonedds(),
+        common::python_has_cyclonedds(),
         "PyPI cyclonedds is missing: run `bash tests/peer/install.sh` (.ci/run does)"
     );
     let dir = tmp_dir("peer");
@@ -436,7 +412,7 @@ fn independent_cyclonedds_peer() {
 #[test]
 fn peer_cdr_selftest() {
     assert!(
-        python_has_cyclonedds(),
+        common::python_has_cyclonedds(),
         "PyPI cyclonedds is missing: run `bash tests/peer/install.sh` (.ci/run does)"
     );
     let out = Command::new("python3")

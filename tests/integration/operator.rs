@@ -3,9 +3,8 @@
 //! published from this process, the node's console log read from its output file, and
 //! `crossym status` run as its own process.
 
-use std::path::Path;
 use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
 use crossym::ros::msg;
@@ -17,21 +16,6 @@ fn cfg() -> String {
         .join("config/letters.toml")
         .display()
         .to_string()
-}
-
-/// Waits until the file at `p` contains `needle` (deadline 60 s).
-fn wait_for(p: &Path, needle: &str) -> bool {
-    let t0 = Instant::now();
-    while t0.elapsed() < Duration::from_secs(60) {
-        if std::fs::read_to_string(p)
-            .unwrap_or_default()
-            .contains(needle)
-        {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    false
 }
 
 /// `crossym status ARGS` on `domain` (its own process): exit code and stdout, stderr.
@@ -96,7 +80,7 @@ fn node_talks_on_the_terminal_and_status_shows_it() {
         &hw_log,
     );
     assert!(
-        wait_for(&node_log, "joint states received"),
+        common::wait_for_text(&node_log, "joint states received", Duration::from_secs(60)),
         "{}",
         common::log_tail(&node_log)
     );
@@ -170,7 +154,11 @@ fn node_talks_on_the_terminal_and_status_shows_it() {
     std::thread::sleep(Duration::from_millis(100));
     cond.publish(condition(0.5)).unwrap();
     assert!(
-        wait_for(&node_log, "symmetry condition accepted: θ = 0.5000 rad"),
+        common::wait_for_text(
+            &node_log,
+            "symmetry condition accepted: θ = 0.5000 rad",
+            Duration::from_secs(60)
+        ),
         "{}",
         common::log_tail(&node_log)
     );
@@ -178,7 +166,11 @@ fn node_talks_on_the_terminal_and_status_shows_it() {
     // The robot goes silent: the node says it brakes.
     assert_eq!(hw.term(), 0);
     assert!(
-        wait_for(&node_log, "joint states stale (age"),
+        common::wait_for_text(
+            &node_log,
+            "joint states stale (age",
+            Duration::from_secs(60)
+        ),
         "{}",
         common::log_tail(&node_log)
     );

@@ -21,7 +21,7 @@ fn rby1_task(
 ) -> Option<(
     Config,
     crossym::config::LoadedRobot,
-    crossym::data::letters::LetterDemos,
+    crossym::data::demonstrations::Demonstrations,
 )> {
     common::rby1_urdf()?;
     Some(common::task(name))
@@ -200,41 +200,46 @@ fn broken_rby1_task_configs_are_refused_with_reasons() {
     };
     let robot = cfg.load_robot().unwrap();
     let kin = &robot.kinematics;
-    let base = cfg.letters.clone().unwrap();
-    let mut no_plane = base.clone();
-    no_plane.arms[0].plane = None;
-    let e = no_plane.build(kin, &cfg.base_dir).unwrap_err().to_string();
-    assert!(e.contains("plane"), "{e}");
-    let mut both = base.clone();
-    both.arms[0].offset = Some(vec![0.0, 0.0, 0.0]);
-    let e = both.build(kin, &cfg.base_dir).unwrap_err().to_string();
-    assert!(e.contains("exactly one"), "{e}");
-    let mut reach_and_letter = base.clone();
-    reach_and_letter.arms[1].reach = vec![crossym::data::letters::Reach {
-        goal: vec![0.5, -0.2, -0.2],
-        via: vec![],
-        duration_s: 1.0,
-        start: None,
-    }];
-    let e = reach_and_letter
-        .build(kin, &cfg.base_dir)
+    let err = |edit: &dyn Fn(&mut crossym::data::letters::ArmLetter, usize)| {
+        common::demos_with(&cfg, kin, |d| {
+            for (i, a) in d.sources[0].arms.iter_mut().enumerate() {
+                edit(a, i);
+            }
+        })
         .unwrap_err()
-        .to_string();
-    assert!(e.contains("not both"), "{e}");
-    let mut bad_reach = base.clone();
-    bad_reach.arms[1].letter = None;
-    bad_reach.arms[1].reach = vec![crossym::data::letters::Reach {
-        goal: vec![0.5, f64::NAN, -0.2],
+        .to_string()
+    };
+    let e = err(&|a, i| {
+        if i == 0 {
+            a.plane = None
+        }
+    });
+    assert!(e.contains("plane"), "{e}");
+    let e = err(&|a, i| {
+        if i == 0 {
+            a.offset = Some(vec![0.0, 0.0, 0.0])
+        }
+    });
+    assert!(e.contains("exactly one"), "{e}");
+    let reach = |goal: Vec<f64>| crossym::data::letters::Reach {
+        goal,
         via: vec![],
         duration_s: 1.0,
         start: None,
-    }];
-    let e = bad_reach.build(kin, &cfg.base_dir).unwrap_err().to_string();
+    };
+    let e = err(&|a, i| {
+        if i == 1 {
+            a.reach = vec![reach(vec![0.5, -0.2, -0.2])]
+        }
+    });
+    assert!(e.contains("not both"), "{e}");
+    let e = err(&|a, i| {
+        if i == 1 {
+            a.letter = None;
+            a.reach = vec![reach(vec![0.5, f64::NAN, -0.2])];
+        }
+    });
     assert!(e.contains("finite"), "{e}");
-    let mut none = base;
-    for a in &mut none.arms {
-        a.letter = None;
-    }
-    let e = none.build(kin, &cfg.base_dir).unwrap_err().to_string();
-    assert!(e.contains("no arm"), "{e}");
+    let e = err(&|a, _| a.letter = None);
+    assert!(e.contains("no arm") || e.contains("needs"), "{e}");
 }

@@ -266,11 +266,16 @@ fn demos_cli_reports_every_source_and_refuses_the_bad_one() {
     assert!(text.contains("pick_1.db3 (300 samples"), "{text}");
     assert!(text.contains("pick_2.mcap (300 samples"), "{text}");
     assert!(
-        text.contains("pick_3: REFUSED: ") && text.contains("position of `right_joint2` is NaN"),
+        text.contains("REFUSED: source `pick_3`: ")
+            && text.contains("position of `right_joint2` is NaN"),
         "{text}"
     );
     assert!(
         text.contains("ignored joints: gripper_left_finger"),
+        "{text}"
+    );
+    assert!(
+        text.contains("1 pick_1: 299 samples") && text.contains("(train)"),
         "{text}"
     );
     for png in ["demos_task.png", "demos_joints.png"] {
@@ -310,5 +315,198 @@ fn demos_cli_reports_every_source_and_refuses_the_bad_one() {
     assert!(
         !out.status.success() && err.contains("`pick_9` is not a source"),
         "{err}"
+    );
+}
+
+/// The planar robot's `[robot]` … `[kinematics]` sections with an absolute URDF path.
+fn planar_robot_toml() -> String {
+    let text = std::fs::read_to_string(common::path("config/letters.toml")).unwrap();
+    let robot = &text[text.find("[robot]").unwrap()..text.find("[[symmetries]]").unwrap()];
+    robot.replace(
+        "../urdf/planar_dual_arm.urdf",
+        common::path("urdf/planar_dual_arm.urdf").to_str().unwrap(),
+    )
+}
+
+/// A minimum-jerk phase `s(τ)` held at 0 before and 1 after.
+fn min_jerk(tau: f64) -> f64 {
+    let t = tau.clamp(0.0, 1.0);
+    t * t * t * (10.0 - 15.0 * t + 6.0 * t * t)
+}
+
+/// A CSV of joint positions (columns shuffled, an extra column, irregular `t`) and a CSV of
+/// task positions become demonstrations through the same `[demonstrations]` schema as bags:
+/// the joint file's samples match the analytic motion on the `dt` grid after idle trimming,
+/// and the task file is tracked into joint space from `start` with its FK on the targets.
+#[test]
+fn csv_sources_of_joint_and_task_positions_load_as_demonstrations() {
+    let dir = common::temp_dir("csv-sources");
+    let robot = common::planar();
+    let kin = &robot.kinematics;
+    let joints = kin.joint_names().to_vec();
+    use std::f64::consts::PI;
+    let rest = [
+        PI / 4.0,
+        -PI / 6.0,
+        -PI / 8.0,
+        -PI / 10.0,
+        -PI / 4.0,
+        PI / 6.0,
+        PI / 8.0,
+        PI / 10.0,
+    ];
+    let delta = [0.4, -0.3, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0];
+    // q(t) = rest + s((t − 0.5)/2) Δ: 0.5 s idle, 2 s motion, 0.5 s idle.
+    let q_at = |t: f64| -> Vec<f64> {
+        let s = min_jerk((t - 0.5) / 2.0);
+        rest.iter().zip(&delta).map(|(r, d)| r + s * d).collect()
+    };
+    let mut order: Vec<usize> = (0..8).rev().collect();
+    order.swap(0, 5);
+    let mut csv = String::from("gripper,");
+    csv += &order
+        .iter()
+        .map(|&j| joints[j].as_str())
+        .collect::<Vec<_>>()
+        .join(",");
+    csv += ",t\n";
+    let mut t = 0.0;
+    let mut k = 0;
+    while t <= 3.0 {
+        let q = q_at(t);
+        csv += &format!(
+            "0.5,{},{t}\n",
+            order
+                .iter()
+                .map(|&j| q[j].to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        );
+        // 2 ms stamps with a deterministic ±0.3 ms wobble.
+        k += 1;
+        t = k as f64 * 0.002 + 0.0003 * ((k * 7919) % 13) as f64 / 13.0;
+    }
+    std::fs::write(dir.join("joints.csv"), csv).unwrap();
+    // Task CSV: the left hand draws a small circle (every dt), the right holds `start`.
+    let mut ws = kin.workspace();
+    let x0 = kin.forward(&rest, &mut ws).as_slice().to_vec();
+    let mut task = String::from("t,left.x,left.y\n");
+    let targets: Vec<[f64; 2]> = (0..300)
+        .map(|i| {
+            let a = i as f64 / 299.0 * std::f64::consts::TAU;
+            [x0[0] + 0.3 * (1.0 - a.cos()), x0[1] + 0.3 * a.sin()]
+        })
+        .collect();
+    for (i, p) in targets.iter().enumerate() {
+        task += &format!("{},{},{}\n", i as f64 * 0.01, p[0], p[1]);
+    }
+    std::fs::write(dir.join("task.csv"), task).unwrap();
+    let text = format!(
+        "{}\n[demonstrations]\ndt = 0.01\ntrain = [\"joints\"]\ntest = [\"circle\"]\n\
+         [[demonstrations.sources]]\nname = \"joints\"\ncsv = \"joints.csv\"\n\
+         [[demonstrations.sources]]\nname = \"circle\"\ncsv = \"task.csv\"\nstart = {:?}\n",
+        planar_robot_toml(),
+        rest
+    );
+    let cfg_path = dir.join("csv.toml");
+    std::fs::write(&cfg_path, &text).unwrap();
+    let cfg = crossym::config::Config::from_file(&cfg_path).unwrap();
+    let d = cfg.load_demonstrations(kin).unwrap();
+    assert_eq!(d.names, ["joints", "circle"]);
+    assert_eq!(
+        (d.train.as_slice(), d.test.as_slice()),
+        (&[1][..], &[2][..])
+    );
+    // Joints: idle trimmed to the last idle sample before motion — the minimum-jerk onset
+    // passes idle_speed = 0.02 rad/s at τ ≈ 0.058, t ≈ 0.62 s, and ends as it falls below it
+    // (≈ 1.77 s of motion) — every sample on the analytic motion (linear interpolation of
+    // 2 ms samples: ≤ 1e-5 rad).
+    let j = &d.demos[0];
+    let crossym::data::demonstrations::SourceDetail::Recorded(r) = &d.sources[0].detail else {
+        panic!("a joint CSV is a recording");
+    };
+    assert_eq!(r.ignored, ["gripper"]);
+    let t0 = r.starts_s[0];
+    assert!((0.58..=0.63).contains(&t0), "motion starts at {t0}");
+    for i in 0..j.len() {
+        let want = q_at(t0 + i as f64 * 0.01);
+        let err = common::dist(j.q(i), &want);
+        assert!(err < 1e-5, "sample {i}: {err:e}");
+    }
+    assert!(
+        (j.len() as f64 * 0.01 - 1.77).abs() < 0.05,
+        "{} samples",
+        j.len()
+    );
+    // Task: FK of the tracked joint path on the targets (one DLS step per sample: the
+    // error is the per-step lag, a few 1e-4 on this 1.9-unit circle), the right arm still.
+    let c = &d.demos[1];
+    assert_eq!(
+        c.len(),
+        299,
+        "300 samples minus the forward difference's last"
+    );
+    for (i, target) in targets.iter().take(c.len()).enumerate() {
+        let x = kin.forward(c.q(i), &mut ws).as_slice().to_vec();
+        assert!(common::dist(&x[..2], target) < 1e-3, "sample {i}");
+        assert!(
+            common::dist(&c.q(i)[4..], &rest[4..]) < 1e-9,
+            "right arm moved"
+        );
+    }
+    // Refusals name the file and the problem.
+    for (body, needle) in [
+        ("t,left.x\n0,1\n", "needs all of its 2 task columns"),
+        (
+            "left_joint1,left_joint2\n0,0\n",
+            "no column for joint `left_joint3`",
+        ),
+        ("t,left.x,left.y\n0,1,nan\n", "is not a finite number"),
+        ("t,left.x,left.y\n0,1,1\n0.5,1,1\n", "sampled every dt"),
+    ] {
+        std::fs::write(dir.join("task.csv"), body).unwrap();
+        let e = cfg.load_demonstrations(kin).unwrap_err().to_string();
+        assert!(e.contains("task.csv") && e.contains(needle), "{body}: {e}");
+    }
+}
+
+/// A config written for the previous release, with a `[letters]` section, loads the same
+/// demonstrations, bit for bit, as the shipped `config/letters.toml` in the
+/// `[demonstrations]` schema; both sections at once are refused.
+#[test]
+fn a_legacy_letters_section_loads_the_same_demonstrations() {
+    let shipped = common::load_config("letters.toml");
+    let text = std::fs::read_to_string(common::path("config/letters.toml")).unwrap();
+    let (a, b) = (
+        text.find("[demonstrations]").unwrap(),
+        text.find("[augmentation]").unwrap(),
+    );
+    let legacy = format!(
+        "{}[letters]\n\
+         arms = [\n\
+         {{ chain = \"left\", letter = \"../data/lasa/CShape.mat\", rest = [0.7853981633974483, -0.5235987755982988, -0.39269908169872414, -0.3141592653589793], offset = [5.0, -1.5] }},\n\
+         {{ chain = \"right\", letter = \"../data/lasa/NShape.mat\", rest = [-0.7853981633974483, 0.5235987755982988, 0.39269908169872414, 0.3141592653589793], offset = [5.0, 1.5] }},\n\
+         ]\nhalf_range = 1.5\ntracking_damping = 1e-3\ndt = 0.01\ndrop = [10, 2, 10, 1]\n\
+         train = [1, 2, 3, 4, 5]\ntest = [6, 7]\n\n{}",
+        &text[..a],
+        &text[b..]
+    );
+    let path = common::path("config/legacy-letters.toml");
+    let mut cfg = crossym::config::Config::from_toml_str(&legacy, &path).unwrap();
+    cfg.base_dir = shipped.base_dir.clone();
+    let robot = shipped.load_robot().unwrap();
+    let kin = &robot.kinematics;
+    let (old, new) = (
+        cfg.load_demonstrations(kin).unwrap(),
+        shipped.load_demonstrations(kin).unwrap(),
+    );
+    assert_eq!(old.demos, new.demos);
+    assert_eq!((old.train, old.test), (new.train, new.test));
+    let both = legacy.replace("[augmentation]", &format!("{}[augmentation]", &text[a..b]));
+    let e = crossym::config::Config::from_toml_str(&both, &path).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("both [letters] and [demonstrations]"),
+        "{e}"
     );
 }

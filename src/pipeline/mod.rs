@@ -1,0 +1,300 @@
+//! The learning pipeline as library calls: demonstrations (`[demonstrations]`, any source)
+//! → augmentation by the lifted composed group (eq. 23; `[augmentation]`) → training of a
+//! symmetry-conditioned policy `π(q, s)` (`[train]`) → evaluation (Table II, `[eval]`).
+//!
+//! The CLI (`crossym augment`, `train`, `eval`, `demo`, `rollout`, `density`), the tests and
+//! the benches call these functions; the CLI only parses arguments and prints.
+//!
+//! - [`build`]: demonstrations and the augmented sets a step needs ([`Splits`]).
+//! - [`train`]: a policy on a sub-group's augmented training set.
+//! - [`table2`]: every test trajectory rolled out per policy, Table II's cells and files.
+//! - [`figures`]: the conditions a figure shows per sub-group, with a caption.
+
+use std::path::{Path, PathBuf};
+
+use crate::config::Config;
+use crate::data::augmentation::{letter_augmenter, AugmentedSet, GroupGrid, SubGroup};
+use crate::data::demonstrations::Demonstrations;
+use crate::data::letters::JointTrajectory;
+use crate::kinematics::Kinematics;
+use crate::policy::{Policy, PolicyMeta, TaskFeatures, TrainConfig, TrainReport};
+use crate::symmetry::check::BuiltSymmetry;
+
+pub mod figures;
+pub mod table2;
+
+/// Why a pipeline step failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PipelineError {
+    /// The config lacks a section the step needs.
+    #[error("{path}: no [{section}] section")]
+    Missing {
+        /// Config path.
+        path: PathBuf,
+        /// The section.
+        section: &'static str,
+    },
+    /// A setting is invalid or inconsistent with the robot or the symmetries.
+    #[error("{path}: {message}")]
+    Invalid {
+        /// Config (or policy) path.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// Demonstrations could not be loaded.
+    #[error(transparent)]
+    Data(#[from] crate::data::DataError),
+    /// The symmetries could not be built.
+    #[error(transparent)]
+    Symmetry(#[from] crate::symmetry::check::CheckError),
+    /// Training or loading a policy failed.
+    #[error(transparent)]
+    Policy(#[from] crate::policy::PolicyError),
+    /// Writing an output failed.
+    #[error("writing {path}: {message}")]
+    Write {
+        /// The file or directory.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+}
+
+fn invalid(cfg: &Config, message: impl Into<String>) -> PipelineError {
+    PipelineError::Invalid {
+        path: cfg.path.clone(),
+        message: message.into(),
+    }
+}
+
+/// `[augmentation]`, or an error naming the config.
+fn augmentation(
+    cfg: &Config,
+) -> Result<&crate::data::augmentation::AugmentationConfig, PipelineError> {
+    cfg.augmentation
+        .as_ref()
+        .ok_or_else(|| PipelineError::Missing {
+            path: cfg.path.clone(),
+            section: "augmentation",
+        })
+}
+
+/// Which augmented sets [`build`] makes (the others stay empty).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Splits {
+    /// The training demonstrations under the training grid.
+    pub train: bool,
+    /// The test demonstrations under the test grid.
+    pub test: bool,
+    /// The training demonstrations under the test grid (Table II's no-learning reference).
+    pub reference: bool,
+}
+
+/// Progress of a long step, for a caller's progress bar.
+#[derive(Debug, Clone, Copy)]
+pub enum Progress<'a> {
+    /// A step starts with this many tasks.
+    Start {
+        /// What runs (`augmenting train`, …).
+        label: &'a str,
+        /// Tasks it will report.
+        tasks: usize,
+    },
+    /// One task done (may be called from worker threads).
+    Tick,
+    /// The step ended.
+    Done,
+}
+
+/// Demonstrations and their augmented sets.
+#[derive(Debug, Clone)]
+pub struct Pipeline {
+    /// The demonstrations (train / test selection included).
+    pub demos: Demonstrations,
+    /// Training demonstrations under the training grid.
+    pub train: AugmentedSet,
+    /// Test demonstrations under the test grid.
+    pub test: AugmentedSet,
+    /// Training demonstrations under the test grid.
+    pub reference: AugmentedSet,
+    /// Wall time of the training augmentation (s).
+    pub train_secs: f64,
+    /// Wall time of the test augmentation (s).
+    pub test_secs: f64,
+}
+
+/// Loads `[demonstrations]` and builds the augmented sets `splits` asks for, reporting
+/// progress through `progress`.
+pub fn build(
+    cfg: &Config,
+    kin: &Kinematics,
+    splits: Splits,
+    progress: &(dyn Fn(Progress<'_>) + Sync),
+) -> Result<Pipeline, PipelineError> {
+    let aug = augmentation(cfg)?;
+    for (label, grid) in [("train", &aug.train), ("test", &aug.test)] {
+        grid.validate()
+            .map_err(|e| invalid(cfg, format!("[augmentation] {label}: {e}")))?;
+    }
+    let demos = cfg.load_demonstrations(kin)?;
+    let (built, _) = crate::symmetry::check::build(kin, &cfg.symmetries)?;
+    let augmenter = letter_augmenter(kin, &built, &cfg.composition.order)
+        .map_err(|e| invalid(cfg, format!("[augmentation]: {e}")))?;
+    for (label, grid) in [("train", &aug.train), ("test", &aug.test)] {
+        augmenter
+            .supports(grid)
+            .map_err(|e| invalid(cfg, format!("[augmentation] {label}: {e}")))?;
+    }
+    let run = |label: &str, grid: &GroupGrid, which: &[usize]| {
+        let sel = demos.select(which);
+        progress(Progress::Start {
+            label,
+            tasks: sel.len() * grid.scales.len(),
+        });
+        let t = std::time::Instant::now();
+        let set = augmenter.augment(&sel, grid, &|| progress(Progress::Tick));
+        progress(Progress::Done);
+        (set, t.elapsed().as_secs_f64())
+    };
+    let (train, train_secs) = if splits.train {
+        run("augmenting train", &aug.train, &demos.train)
+    } else {
+        (AugmentedSet::default(), 0.0)
+    };
+    let (test, test_secs) = if splits.test {
+        run("augmenting test", &aug.test, &demos.test)
+    } else {
+        (AugmentedSet::default(), 0.0)
+    };
+    let reference = if splits.reference {
+        run("augmenting reference", &aug.test, &demos.train).0
+    } else {
+        AugmentedSet::default()
+    };
+    Ok(Pipeline {
+        demos,
+        train,
+        test,
+        reference,
+        train_secs,
+        test_secs,
+    })
+}
+
+/// The canonical task-space features `[train] task_features` asks for (`None` without),
+/// restricted to the sub-group `group` the policy is trained on.
+pub fn task_features_for(
+    cfg: &Config,
+    kin: &Kinematics,
+    built: &[BuiltSymmetry],
+    tc: &TrainConfig,
+    group: SubGroup,
+) -> Result<Option<TaskFeatures>, PipelineError> {
+    if !tc.task_features {
+        return Ok(None);
+    }
+    let mut f = TaskFeatures::for_robot(kin, built, &cfg.composition.order)
+        .map_err(|e| invalid(cfg, format!("[train] task_features: {e}")))?;
+    f.restrict_to(group);
+    Ok(Some(f))
+}
+
+/// Loads a policy and checks that it drives `kin`'s joints, in the same order, with the
+/// same kinematics for its task features.
+pub fn load_policy_for(kin: &Kinematics, file: &Path) -> Result<Policy, PipelineError> {
+    let policy = Policy::load(file)?;
+    let bad = |message: String| PipelineError::Invalid {
+        path: file.to_path_buf(),
+        message,
+    };
+    if policy.meta.joint_names != kin.joint_names() {
+        return Err(bad(format!(
+            "policy joints {:?} differ from the robot's {:?}",
+            policy.meta.joint_names,
+            kin.joint_names()
+        )));
+    }
+    if let Some(t) = policy.task_features() {
+        t.check_kinematics(kin).map_err(|e| bad(e.to_string()))?;
+    }
+    Ok(policy)
+}
+
+/// Demonstration number `which` (1-based) of `demos`, by default the first test one.
+pub fn pick_demo(
+    demos: &Demonstrations,
+    which: Option<usize>,
+) -> Result<&JointTrajectory, PipelineError> {
+    let bad = |message: String| PipelineError::Invalid {
+        path: PathBuf::from("[demonstrations]"),
+        message,
+    };
+    let which = which
+        .or_else(|| demos.test.first().copied())
+        .ok_or_else(|| bad("no demonstration given and no test demonstration".into()))?;
+    demos.demos.iter().find(|d| d.demo == which).ok_or_else(|| {
+        bad(format!(
+            "no demonstration {which} (have 1..={}: {})",
+            demos.demos.len(),
+            demos.names.join(", ")
+        ))
+    })
+}
+
+/// What [`train`] produced.
+#[derive(Debug)]
+pub struct Trained {
+    /// The policy (not yet saved).
+    pub policy: Policy,
+    /// Loss and timing.
+    pub report: TrainReport,
+    /// Augmented trajectories trained on.
+    pub trajectories: usize,
+}
+
+/// Trains a policy on the training demonstrations augmented with sub-group `group` under
+/// `tc` (usually `[train]`, iterations possibly overridden); `on_iteration(it, loss)` is
+/// called as training goes.
+pub fn train(
+    cfg: &Config,
+    kin: &Kinematics,
+    p: &Pipeline,
+    group: SubGroup,
+    tc: &TrainConfig,
+    on_iteration: impl FnMut(usize, f64),
+) -> Result<Trained, PipelineError> {
+    let data: Vec<_> = p
+        .train
+        .subset(group)
+        .into_iter()
+        .map(|a| (&a.traj, a.condition))
+        .collect();
+    let symmetry = serde_json::json!({
+        "group": group.label(),
+        "order": cfg.composition.order,
+        "grid": cfg.augmentation.as_ref().map(|a| serde_json::to_value(&a.train).unwrap_or_default()),
+    });
+    let meta = PolicyMeta::new(&kin.robot, kin.joint_names().to_vec(), symmetry);
+    let (built, _) = crate::symmetry::check::build(kin, &cfg.symmetries)?;
+    let features = task_features_for(cfg, kin, &built, tc, group)?;
+    let (policy, report) =
+        crate::policy::train_with_features(&data, tc, meta, features, on_iteration)?;
+    Ok(Trained {
+        policy,
+        report,
+        trajectories: data.len(),
+    })
+}
+
+/// Creates the parent directory of `file` (if any).
+pub fn create_parent(file: &Path) -> Result<(), PipelineError> {
+    if let Some(dir) = file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| PipelineError::Write {
+            path: dir.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    }
+    Ok(())
+}
