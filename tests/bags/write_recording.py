@@ -3,7 +3,7 @@
 
     python3 tests/bags/write_recording.py OUTDIR --storage sqlite3|mcap [--seconds 3]
         [--rate 100] [--fault none|nan|backwards|duplicate|missing-joint|zero-stamps]
-        [--dump FILE.json]
+        [--dump FILE.json] [--motion wave|teach] [--noise STD] [--seed 7]
 
 Independent of crossym: the bag is written by rosbags' Writer (SQLite3 or MCAP storage,
 CDR by its typestore). Content: /joint_states (sensor_msgs/msg/JointState) at --rate Hz,
@@ -11,6 +11,12 @@ naming the planar dual arm's eight joints in a shuffled order among joints it do
 control (torso, head, grippers), positions = a smooth motion, velocity and effort empty;
 header stamps = receive time − 2 ms (a driver's measurement time), receive times jittered
 by up to ±0.5 ms; a /tf_static-like decoy topic of another type.
+
+--motion teach writes the scripted motion of tests/tools/teach_motion.py instead of the
+smooth wave (rest, hold, the left arm's minimum-jerk move, hold at the goal; --seconds
+defaults to its duration, the goal held after it); --noise adds Gaussian encoder noise of
+that standard deviation (rad) to the controlled joints' positions; --seed seeds the joint
+order, the stamp jitter and the noise (7, the default, gives the bags the wave always had).
 
 --dump writes, per message, the header stamp (ns), the receive time (ns) and the positions
 of the eight controlled joints in the order left_joint1..4, right_joint1..4 — what a
@@ -27,11 +33,15 @@ import argparse
 import json
 import math
 import random
+import sys
 from pathlib import Path
 
 import numpy as np
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / 'tools'))
+import teach_motion  # noqa: E402  (tests/tools)
 
 CONTROLLED = [f'left_joint{i}' for i in range(1, 5)] + [f'right_joint{i}' for i in range(1, 5)]
 EXTRA = ['torso_joint', 'head_pan', 'gripper_left_finger', 'gripper_right_finger']
@@ -43,19 +53,25 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('outdir', type=Path)
     ap.add_argument('--storage', choices=('sqlite3', 'mcap'), required=True)
-    ap.add_argument('--seconds', type=float, default=3.0)
+    ap.add_argument('--seconds', type=float, help='length (s); default 3, or the teach motion\'s duration')
     ap.add_argument('--rate', type=float, default=100.0)
     ap.add_argument('--fault', default='none',
                     choices=('none', 'nan', 'backwards', 'duplicate', 'missing-joint', 'zero-stamps', 'gap'))
     ap.add_argument('--dump', type=Path)
+    ap.add_argument('--motion', choices=('wave', 'teach'), default='wave')
+    ap.add_argument('--noise', type=float, default=0.0, help='encoder noise std (rad), controlled joints')
+    ap.add_argument('--seed', type=int, default=7)
     args = ap.parse_args()
+    if args.seconds is None:
+        args.seconds = teach_motion.DURATION_S if args.motion == 'teach' else 3.0
+    noise = np.random.default_rng(args.seed) if args.noise > 0.0 else None
 
     store = get_typestore(Stores.ROS2_HUMBLE)
     JointState = store.types['sensor_msgs/msg/JointState']
     Header = store.types['std_msgs/msg/Header']
     Time = store.types['builtin_interfaces/msg/Time']
     Str = store.types['std_msgs/msg/String']
-    rng = random.Random(7)
+    rng = random.Random(args.seed)
     order = CONTROLLED + EXTRA
     rng.shuffle(order)
 
@@ -81,8 +97,13 @@ def main() -> int:
             if args.fault == 'zero-stamps':
                 stamp = 0
             prev_stamp = stamp
-            q = {name: REST[i] + 0.3 * math.sin(2 * math.pi * 0.4 * t + 0.5 * i) * (1 - math.exp(-t))
-                 for i, name in enumerate(CONTROLLED)}
+            if args.motion == 'teach':
+                q = dict(zip(teach_motion.JOINTS, teach_motion.position(t)))
+            else:
+                q = {name: REST[i] + 0.3 * math.sin(2 * math.pi * 0.4 * t + 0.5 * i) * (1 - math.exp(-t))
+                     for i, name in enumerate(CONTROLLED)}
+            if noise is not None:
+                q = {name: v + float(noise.normal(0.0, args.noise)) for name, v in q.items()}
             q.update({name: 0.1 * (i + 1) + 0.01 * t for i, name in enumerate(EXTRA)})
             if args.fault == 'nan' and k == bad:
                 q['right_joint2'] = float('nan')

@@ -22,3 +22,4 @@ mod ros;
 mod safety;
 mod sim;
 mod task_induced;
+mod teach;
