@@ -510,3 +510,88 @@ fn a_legacy_letters_section_loads_the_same_demonstrations() {
         "{e}"
     );
 }
+
+/// `crossym train` on a config whose bag source is bad (a NaN position, a truncated file)
+/// fails with the source, the bag and the problem named, and writes nothing: no policy, no
+/// sidecar, no loss log.
+#[test]
+fn training_refuses_a_bad_recording_and_writes_nothing() {
+    let dir = common::temp_dir("rec-train-refuses");
+    for (name, storage, fault) in [("good", "mcap", "none"), ("bad", "sqlite3", "nan")] {
+        common::run_ok(
+            Command::new("python3")
+                .arg(common::path("tests/bags/write_recording.py"))
+                .arg(dir.join(name))
+                .args(["--storage", storage, "--fault", fault]),
+        );
+    }
+    // A copy of the good bag with its MCAP file cut in half.
+    let cut = dir.join("cut");
+    std::fs::create_dir_all(&cut).unwrap();
+    for e in std::fs::read_dir(dir.join("good")).unwrap() {
+        let p = e.unwrap().path();
+        let bytes = std::fs::read(&p).unwrap();
+        let name = p
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .replace("good", "cut");
+        let keep = if name.ends_with(".mcap") {
+            bytes.len() / 2
+        } else {
+            bytes.len()
+        };
+        let text = String::from_utf8_lossy(&bytes[..keep]).replace("good", "cut");
+        if name.ends_with(".yaml") {
+            std::fs::write(cut.join(name), text).unwrap();
+        } else {
+            std::fs::write(cut.join(name), &bytes[..keep]).unwrap();
+        }
+    }
+    let text = std::fs::read_to_string(common::path("config/letters.toml")).unwrap();
+    let head = &text[text.find("[robot]").unwrap()..text.find("[demonstrations]").unwrap()];
+    let head = head.replace(
+        "../urdf/planar_dual_arm.urdf",
+        common::path("urdf/planar_dual_arm.urdf").to_str().unwrap(),
+    );
+    for (bad, needle) in [
+        (
+            "bad",
+            "message 150 (t = 1.499 s): position of `right_joint2` is NaN",
+        ),
+        ("cut", "cut.mcap: not a readable MCAP file"),
+    ] {
+        let cfg = dir.join(format!("train-{bad}.toml"));
+        std::fs::write(
+            &cfg,
+            format!(
+                "{head}\n[demonstrations]\ndt = 0.01\ntrain = [\"good\", \"{bad}\"]\n\
+                 [[demonstrations.sources]]\nname = \"good\"\nbag = \"good\"\n\
+                 [[demonstrations.sources]]\nname = \"{bad}\"\nbag = \"{bad}\"\n\
+                 [augmentation]\ntrain = {{ reflection = true }}\ntest = {{ reflection = true }}\n\
+                 [train]\nhidden = [8]\niterations = 2\nbatch_size = 4\n"
+            ),
+        )
+        .unwrap();
+        let out = dir.join(format!("policy-{bad}.safetensors"));
+        let o = common::crossym(["train", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{bad}: training succeeded");
+        assert!(
+            err.contains(&format!("source `{bad}`")) && err.contains(needle),
+            "{bad}: {err}"
+        );
+        for f in [
+            out.clone(),
+            out.with_extension("json"),
+            out.with_extension("loss.csv"),
+        ] {
+            assert!(!f.exists(), "{bad}: {} was written", f.display());
+        }
+    }
+}
