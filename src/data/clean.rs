@@ -187,8 +187,9 @@ pub enum CleanError {
     },
 }
 
-/// Linear resampling of `rec` onto `t = iΔt`; checks gaps.
-fn resample(
+/// Linear resampling of `rec` onto `t = iΔt` (`dt` in s), refusing gaps over `cfg.max_gap_s`:
+/// positions row-major `len × n` (rad or m) and the largest stamp step (s).
+pub fn resample(
     rec: &JointRecording,
     dt: f64,
     cfg: &CleanConfig,
