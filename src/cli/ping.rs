@@ -7,6 +7,12 @@
 //! arrival is one round trip. A probe without a command within `--reply-timeout-ms` is
 //! lost. The node should run with `trigger = "joint_states"` (else a round trip includes
 //! the wait for the next timer tick, up to a period).
+//!
+//! ping waits for the command as a driver does, blocked until DDS wakes it (`--busy-wait`
+//! spins instead, taking a core), and splits each round trip with the stamps DDS carries
+//! (both processes read the same wall clock): the probe's publish → the command's publish
+//! (over DDS to the node and through it), the command's publish → its DDS receive here,
+//! and that receive → ping holding it.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -36,6 +42,9 @@ pub struct PingArgs {
     /// Give up (exit 1) when no command answers within this time at start (s).
     #[arg(long, default_value_t = 20.0)]
     pub connect_timeout_s: f64,
+    /// Spin on the subscription instead of blocking until DDS wakes ping (takes a core).
+    #[arg(long)]
+    pub busy_wait: bool,
     /// The node's flags, when it was started with some (name, namespace, output, topics).
     #[command(flatten)]
     pub node: NodeOverrides,
@@ -77,11 +86,55 @@ enum Replies {
 impl Replies {
     /// True when a command was waiting.
     fn take(&self) -> bool {
+        self.try_info().is_some()
+    }
+
+    /// The stamps of a waiting command, without blocking.
+    fn try_info(&self) -> Option<ros2_client::MessageInfo> {
         match self {
-            Self::Array(s) => matches!(s.take(), Ok(Some(_))),
-            Self::Trajectory(s) => matches!(s.take(), Ok(Some(_))),
+            Self::Array(s) => s.take().ok().flatten().map(|(_, i)| i),
+            Self::Trajectory(s) => s.take().ok().flatten().map(|(_, i)| i),
         }
     }
+
+    /// The stamps of the next command, waiting until DDS delivers one (`None`: reader error).
+    async fn next_info(&self) -> Option<ros2_client::MessageInfo> {
+        match self {
+            Self::Array(s) => s.async_take().await.ok().map(|(_, i)| i),
+            Self::Trajectory(s) => s.async_take().await.ok().map(|(_, i)| i),
+        }
+    }
+}
+
+/// One answered probe: the round trip and its parts (µs).
+#[derive(Debug, Clone, Copy)]
+struct Probe {
+    rtt: f64,
+    /// Probe published → command published (source stamps).
+    forward: Option<f64>,
+    /// Command published → received by ping's DDS event loop.
+    back: Option<f64>,
+    /// Received → held by ping.
+    wake: Option<f64>,
+}
+
+impl Probe {
+    fn new(rtt: f64, sent_ns: i64, taken_ns: i64, info: &ros2_client::MessageInfo) -> Self {
+        let us = |a: i64, b: i64| (b - a) as f64 * 1e-3;
+        let tx = info.source_timestamp().map(|t| t.to_nanos());
+        let rx = info.received_timestamp().map(|t| t.to_nanos());
+        Self {
+            rtt,
+            forward: tx.map(|tx| us(sent_ns, tx)),
+            back: tx.zip(rx).map(|(tx, rx)| us(tx, rx)),
+            wake: rx.map(|rx| us(rx, taken_ns)),
+        }
+    }
+}
+
+/// Wall clock (ns since the Unix epoch).
+fn wall_ns() -> i64 {
+    dds::wall_time_ns() as i64
 }
 
 /// `crossym ping`. Exit 1 when no command answers.
@@ -141,22 +194,25 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
         )?),
     };
     let names = kin.joint_names().to_vec();
-    let send = || -> anyhow::Result<()> {
-        let now = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap_or_default();
+    // Publishes one probe; returns its wall-clock publish time (ns).
+    let send = || -> anyhow::Result<i64> {
+        let now = wall_ns();
         js_pub
             .publish(msg::JointState {
                 header: msg::Header {
-                    stamp: msg::Time::from_secs_f64(now.as_secs_f64()),
+                    stamp: msg::Time::from_secs_f64(now as f64 * 1e-9),
                     frame_id: String::new(),
                 },
                 name: names.clone(),
                 position: q.clone(),
                 ..Default::default()
             })
-            .map_err(|e| anyhow::anyhow!("publishing on {js_topic}: {e:?}"))
+            .map_err(|e| anyhow::anyhow!("publishing on {js_topic}: {e:?}"))?;
+        Ok(now)
     };
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
+        .build()?;
     eprintln!(
         "crossym ping: {js_topic} → {cmd_topic}, {} probes at {} Hz",
         a.count, a.rate
@@ -180,44 +236,91 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
     }
     let period = Duration::from_secs_f64(1.0 / a.rate);
     let timeout = Duration::from_secs_f64(a.reply_timeout_ms * 1e-3);
-    let mut rtt = Vec::with_capacity(a.count);
-    let mut lost = 0usize;
+    let mut probes: Vec<Probe> = Vec::with_capacity(a.count);
+    let (mut lost, mut stray) = (0usize, 0usize);
     let mut next = Instant::now();
     for _ in 0..a.count {
-        while replies.take() {}
+        while replies.take() {
+            stray += 1;
+        }
         let now = Instant::now();
         if next > now {
             std::thread::sleep(next - now);
         }
         next += period;
         let t0 = Instant::now();
-        send()?;
-        loop {
-            if replies.take() {
-                rtt.push(t0.elapsed().as_secs_f64() * 1e6);
-                break;
+        let sent_ns = send()?;
+        // The probe's command: the first one published after the probe (an older one,
+        // e.g. of a tick the node ran on its own, is a stray).
+        let answers = |i: &ros2_client::MessageInfo| {
+            i.source_timestamp().is_none_or(|t| t.to_nanos() >= sent_ns)
+        };
+        let info = loop {
+            let got = if a.busy_wait {
+                loop {
+                    if let Some(i) = replies.try_info() {
+                        break Some(i);
+                    }
+                    if t0.elapsed() > timeout {
+                        break None;
+                    }
+                    std::hint::spin_loop();
+                }
+            } else {
+                let left = timeout.saturating_sub(t0.elapsed());
+                rt.block_on(async { tokio::time::timeout(left, replies.next_info()).await })
+                    .ok()
+                    .flatten()
+            };
+            match got {
+                Some(i) if !answers(&i) => stray += 1,
+                other => break other,
             }
-            if t0.elapsed() > timeout {
-                lost += 1;
-                break;
-            }
-            std::hint::spin_loop();
+        };
+        match info {
+            Some(i) => probes.push(Probe::new(
+                t0.elapsed().as_secs_f64() * 1e6,
+                sent_ns,
+                wall_ns(),
+                &i,
+            )),
+            None => lost += 1,
         }
     }
+    let mut rtt: Vec<f64> = probes.iter().map(|p| p.rtt).collect();
     let Some(l) = latency(&mut rtt) else {
         println!("ping: {} probes, all lost", a.count);
         return Ok(ExitCode::from(1));
     };
     println!(
-        "ping: {} round trips at {} Hz: median {:.0} µs, p99 {:.0} µs, p99.9 {:.0} µs, max {:.0} µs; {lost} lost (no command within {} ms)",
+        "ping: {} round trips at {} Hz ({}): median {:.0} µs, p99 {:.0} µs, p99.9 {:.0} µs, max {:.0} µs; {lost} lost (no command within {} ms), {stray} stray commands (published before their probe)",
         rtt.len(),
         a.rate,
+        if a.busy_wait { "busy-wait" } else { "blocking wait" },
         l.median,
         l.p99,
         l.p999,
         l.max,
         a.reply_timeout_ms
     );
+    for (label, part) in [
+        (
+            "probe published → command published (to the node and through it)",
+            &(|p: &Probe| p.forward) as &dyn Fn(&Probe) -> Option<f64>,
+        ),
+        ("command published → received here (DDS)", &|p: &Probe| {
+            p.back
+        }),
+        ("received here → held by ping", &|p: &Probe| p.wake),
+    ] {
+        let mut v: Vec<f64> = probes.iter().filter_map(part).collect();
+        if let Some(l) = latency(&mut v) {
+            println!(
+                "  {label}: median {:.0} µs, p99 {:.0} µs, p99.9 {:.0} µs, max {:.0} µs",
+                l.median, l.p99, l.p999, l.max
+            );
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -72,7 +72,8 @@ pub enum Trigger {
     /// Every `period_s`, on the latest inputs (fixed-rate controller).
     #[default]
     Timer,
-    /// On every accepted joint state (lowest latency); at `period_s` when none arrives.
+    /// On every accepted joint state (lowest latency); when none arrives for
+    /// `stale_timeout_s`, at `period_s` (commanding the stale-input stop).
     JointStates,
 }
 

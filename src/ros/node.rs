@@ -19,7 +19,7 @@
 //!   a `SHUTDOWN` status, lets reliable delivery drain, and the process exits 0.
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::Arc;
 use std::thread::{self, Thread};
 use std::time::{Duration, Instant};
@@ -67,9 +67,42 @@ pub struct TickStats {
     pub bag_messages: u64,
     /// Messages dropped because the bag writer fell behind (count).
     pub bag_dropped: u64,
+    /// Joint state written by its publisher (its source stamp) → received by this node's
+    /// DDS event loop (wall clock of both processes, µs).
+    pub dds_in: HopStats,
+    /// DDS receive → the I/O task holds the joint state (µs).
+    pub to_io: HopStats,
+    /// I/O task hands the inputs over and wakes the control thread → the tick starts (µs;
+    /// `trigger = "joint_states"` only).
+    pub handoff: HopStats,
+    /// The command publish call (serialisation, hand-off to the DDS writer; µs).
+    pub publish: HopStats,
 }
 
-/// Fixed-size histogram of tick durations, 1 µs bins up to 20 ms (no allocation per sample).
+/// Latency of one hop of the joint state → command path (µs), from a histogram of 1 µs bins.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct HopStats {
+    /// Samples (count).
+    pub count: u64,
+    /// Median (µs).
+    pub median_us: f64,
+    /// 99th percentile (µs).
+    pub p99_us: f64,
+    /// Maximum (µs).
+    pub max_us: f64,
+}
+
+impl std::fmt::Display for HopStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "median {:.0} µs, p99 {:.0} µs, max {:.0} µs ({} samples)",
+            self.median_us, self.p99_us, self.max_us, self.count
+        )
+    }
+}
+
+/// Fixed-size histogram of durations, 1 µs bins up to 20 ms (no allocation per sample).
 struct Histogram {
     bins: Vec<u32>,
     n: u64,
@@ -111,6 +144,26 @@ impl Histogram {
         }
         self.max_us
     }
+
+    fn stats(&self) -> HopStats {
+        HopStats {
+            count: self.n,
+            median_us: self.quantile(0.5),
+            p99_us: self.quantile(0.99),
+            max_us: self.max_us,
+        }
+    }
+}
+
+/// Microseconds from wall-clock stamp `from_ns` to `to_ns` (ns since the Unix epoch), at
+/// least 0 (stamps of two threads or processes of one host).
+fn span_us(from_ns: i64, to_ns: i64) -> f64 {
+    (to_ns.saturating_sub(from_ns)).max(0) as f64 * 1e-3
+}
+
+/// Wall-clock now (ns since the Unix epoch) as the `i64` of ROS times.
+fn wall_ns() -> i64 {
+    dds::wall_time_ns() as i64
 }
 
 /// Runs the node until SIGINT/SIGTERM (or `stop` is set); returns the tick statistics.
@@ -175,6 +228,8 @@ pub fn run(
     let rec_ctl = recorder.as_ref().map(|r| r.0.clone());
     let command = ends.command;
     let status_pub = ends.status;
+    let handed_ns = Arc::new(AtomicI64::new(0));
+    let handed_ctl = handed_ns.clone();
     let control = thread::Builder::new()
         .name("crossym-control".into())
         .spawn(move || {
@@ -186,7 +241,10 @@ pub fn run(
                     publisher: status_pub,
                     log: status_tx,
                 },
-                stop_ctl,
+                ControlLinks {
+                    stop: stop_ctl,
+                    handed_ns: handed_ctl,
+                },
                 status_names,
                 rec_ctl,
             )
@@ -206,6 +264,9 @@ pub fn run(
         watch: StatusWatch::default(),
         status: status_rx,
         log,
+        dds_in: Histogram::new(),
+        to_io: Histogram::new(),
+        handed_ns,
     };
     runtime.block_on(path.serve(ends.joint_states, ends.conditions, spinner, &stop));
     stop.store(true, Ordering::Release);
@@ -327,6 +388,12 @@ struct InputPath {
     watch: StatusWatch,
     status: std::sync::mpsc::Receiver<StatusSnapshot>,
     log: NodeLog,
+    /// Publisher's source stamp → DDS receive, per joint state (µs).
+    dds_in: Histogram,
+    /// DDS receive → this task, per joint state (µs).
+    to_io: Histogram,
+    /// Wall-clock time (ns) of the last hand-over, read by the control thread.
+    handed_ns: Arc<AtomicI64>,
 }
 
 impl InputPath {
@@ -336,9 +403,17 @@ impl InputPath {
         self.input.publish();
     }
 
-    /// One joint state: validated, handed over, recorded, the control thread woken.
-    fn on_joint_state(&mut self, m: msg::JointState) {
+    /// One joint state: validated, handed over, recorded, the control thread woken; the
+    /// DDS hops it took are recorded from its `info` stamps.
+    fn on_joint_state(&mut self, m: msg::JointState, info: &ros2_client::MessageInfo) {
         let now_ns = dds::wall_time_ns();
+        if let Some(rx) = info.received_timestamp() {
+            let rx = rx.to_nanos();
+            if let Some(tx) = info.source_timestamp() {
+                self.dds_in.record(span_us(tx.to_nanos(), rx));
+            }
+            self.to_io.record(span_us(rx, now_ns as i64));
+        }
         if let Err(r) = self.gate.on_joint_state(&m, now_ns as f64 * 1e-9) {
             self.log.limited(
                 r.describe(),
@@ -355,6 +430,7 @@ impl InputPath {
             ));
         }
         if let Some(t) = &self.wake {
+            self.handed_ns.store(wall_ns(), Ordering::Release);
             t.unpark();
         }
     }
@@ -426,7 +502,7 @@ impl InputPath {
         loop {
             tokio::select! {
                 m = js_stream.next() => match m {
-                    Some(Ok((m, _))) => self.on_joint_state(m),
+                    Some(Ok((m, info))) => self.on_joint_state(m, &info),
                     Some(Err(e)) => self.log.limited("undecodable", Severity::Warn, &format!("joint_states not decodable: {e:?}")),
                     None => break,
                 },
@@ -470,6 +546,8 @@ fn finish(
                 message: format!("recording: {e}"),
             })?;
     }
+    stats.dds_in = path.dds_in.stats();
+    stats.to_io = path.to_io.stats();
     path.drain_status();
     path.log.flush_suppressed();
     path.log.log(
@@ -479,6 +557,15 @@ fn finish(
             stats.ticks, stats.commands, stats.publish_errors, stats.median_us, stats.p99_us, stats.max_us
         ),
     );
+    if stats.dds_in.count + stats.to_io.count > 0 {
+        path.log.log(
+            Severity::Info,
+            &format!(
+                "joint state → command hops: DDS in (publisher → this node) {}; DDS receive → I/O task {}; hand-over → tick {}; tick median {:.0} µs, p99 {:.0} µs, max {:.0} µs; publish call {}",
+                stats.dds_in, stats.to_io, stats.handoff, stats.median_us, stats.p99_us, stats.max_us, stats.publish
+            ),
+        );
+    }
     Ok(stats)
 }
 
@@ -680,6 +767,13 @@ impl CommandPublisher {
     }
 }
 
+/// What the control thread shares with the I/O side: the stop flag, and the wall-clock
+/// time (ns) of the last hand-over (for the hand-over → tick latency).
+struct ControlLinks {
+    stop: Arc<AtomicBool>,
+    handed_ns: Arc<AtomicI64>,
+}
+
 /// Where the control thread sends each status: the `~/status` topic and the I/O side's log.
 struct StatusOut {
     publisher: ros2_client::Publisher<msg::Status>,
@@ -691,15 +785,18 @@ fn control_loop(
     mut inputs: triple_buffer::Output<Inputs>,
     out: CommandPublisher,
     status: StatusOut,
-    stop: Arc<AtomicBool>,
+    links: ControlLinks,
     names: Vec<String>,
     rec: Option<Recorder>,
 ) -> TickStats {
+    let ControlLinks { stop, handed_ns } = links;
     let cfg = core.config().clone();
     let period = Duration::from_secs_f64(cfg.period_s);
+    let stale_after = Duration::from_secs_f64(cfg.stale_timeout_s.max(cfg.period_s));
     let status_period = Duration::from_secs_f64(cfg.status_period_s);
     let mut cmd = core.command();
     let mut hist = Histogram::new();
+    let (mut handoff, mut publish) = (Histogram::new(), Histogram::new());
     let mut stats = TickStats::default();
     let mut next = Instant::now() + period;
     let mut next_status = Instant::now();
@@ -722,9 +819,13 @@ fn control_loop(
             thread::park_timeout(next.saturating_duration_since(now));
             continue;
         }
-        last_seq = seq;
         let t0 = Instant::now();
         let now_ns = dds::wall_time_ns();
+        let fresh = seq != last_seq;
+        if cfg.trigger == Trigger::JointStates && fresh {
+            handoff.record(span_us(handed_ns.load(Ordering::Acquire), now_ns as i64));
+        }
+        last_seq = seq;
         let report = core.tick(now_ns as f64 * 1e-9, &mut cmd);
         let us = t0.elapsed().as_secs_f64() * 1e6;
         core.record_tick_time(us);
@@ -734,11 +835,13 @@ fn control_loop(
             let r = rec
                 .as_ref()
                 .map(|r| (r, now_ns, inputs.peek_output_buffer().command_sequence()));
+            let tp = Instant::now();
             if out.publish(&cmd, &names, cfg.period_s, r) {
                 stats.commands += 1;
             } else {
                 stats.publish_errors += 1;
             }
+            publish.record(tp.elapsed().as_secs_f64() * 1e6);
         }
         next = match cfg.trigger {
             Trigger::Timer => {
@@ -749,6 +852,10 @@ fn control_loop(
                     n
                 }
             }
+            // A tick per joint state; without one for the stale timeout the ticks go on at
+            // the period (they command the stale-input stop). A fallback at one period
+            // would race the driver's next state and double the commands.
+            Trigger::JointStates if fresh => t0 + stale_after,
             Trigger::JointStates => t0 + period,
         };
         if t0 >= next_status {
@@ -784,5 +891,7 @@ fn control_loop(
     stats.median_us = hist.quantile(0.5);
     stats.p99_us = hist.quantile(0.99);
     stats.max_us = hist.max_us;
+    stats.handoff = handoff.stats();
+    stats.publish = publish.stats();
     stats
 }

@@ -255,7 +255,10 @@ fn ping_measures_round_trips_to_a_running_node() {
             .output()
             .unwrap()
     };
-    let out = ping(domain, &["--count", "300", "--rate", "200"]);
+    // At the node's own rate (100 Hz): every command must answer its probe. A node that
+    // also ticked one period after each joint state would race the next probe and publish
+    // commands before it ("stray"), and ping would have scored them as replies.
+    let out = ping(domain, &["--count", "300", "--rate", "100"]);
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),
@@ -277,10 +280,43 @@ fn ping_measures_round_trips_to_a_running_node() {
     };
     let (n, median, p99, max) = (num("ping: "), num("median "), num("p99 "), num("max "));
     let lost = num("µs; ");
+    let stray = num("ms), ");
     assert_eq!(n + lost, 300.0, "{line}");
     assert!(lost <= 15.0, "{line}");
+    assert_eq!(stray, 0.0, "{text}");
     assert!(0.0 < median && median <= p99 && p99 <= max, "{line}");
+    // The split of each round trip by the DDS stamps: the probe's command was published
+    // after the probe (a positive forward part) and the parts are in order.
+    let part = |label: &str| -> f64 {
+        let l = text.lines().find(|l| l.contains(label)).expect(label);
+        l.split("median ")
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (fwd, back, wake) = (
+        part("probe published → command published"),
+        part("command published → received here"),
+        part("received here → held by ping"),
+    );
+    assert!(fwd > 0.0 && back > 0.0 && wake >= 0.0, "{text}");
+    assert!(fwd + back + wake <= 2.0 * median + 100.0, "{text}");
     assert_eq!(node.term(), 0, "{}", common::log_tail(&node_log));
+    // The node's own per-hop histograms in its shutdown summary, one sample per probe.
+    let log = std::fs::read_to_string(&node_log).unwrap();
+    let hops = log
+        .lines()
+        .find(|l| l.contains("joint state → command hops"))
+        .expect("hops line");
+    assert!(
+        hops.contains("DDS in (publisher → this node) median"),
+        "{hops}"
+    );
+    assert!(hops.contains("hand-over → tick median"), "{hops}");
 
     // No node on another domain: exit 1 with a reason.
     let out = ping(domain + 1, &["--connect-timeout-s", "1"]);
