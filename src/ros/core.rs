@@ -111,6 +111,9 @@ pub struct NodeConfig {
     pub accept_untrained_conditions: bool,
     /// Console and `/rosout` log level of the node (`debug`, `info`, `warn`, `error`).
     pub log_level: super::log::Severity,
+    /// Real-time settings of the control thread (`SCHED_FIFO`, locked memory); off when
+    /// absent.
+    pub realtime: Option<super::realtime::RealtimeConfig>,
 }
 
 impl Default for NodeConfig {
@@ -130,6 +133,7 @@ impl Default for NodeConfig {
             safety: SafetySettings::default(),
             accept_untrained_conditions: false,
             log_level: super::log::Severity::Info,
+            realtime: None,
         }
     }
 }
@@ -181,6 +185,9 @@ impl NodeConfig {
         self.default_condition
             .validate()
             .map_err(|m| bad("default_condition", m))?;
+        if let Some(r) = &self.realtime {
+            r.validate().map_err(|m| bad("realtime", m))?;
+        }
         Ok(())
     }
 }

@@ -12,6 +12,7 @@ pub mod log;
 pub mod msg;
 pub mod msgdef;
 pub mod node;
+pub mod realtime;
 
 pub use self::core::{
     Command, InputGate, Inputs, NodeConfig, NodeCore, NodeError, NodeSetupError, OutputMode,

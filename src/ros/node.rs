@@ -252,6 +252,20 @@ pub fn run(
         .map_err(|e| NodeRunError::Runtime {
             message: format!("control thread: {e}"),
         })?;
+    if let Some(rt) = &cfg.realtime {
+        use std::os::unix::thread::JoinHandleExt;
+        for o in super::realtime::apply(rt, control.as_pthread_t()) {
+            match o {
+                super::realtime::RealtimeOutcome::Applied { what } => {
+                    log.log(Severity::Info, &format!("realtime: {what}"))
+                }
+                super::realtime::RealtimeOutcome::Refused { what, reason } => log.log(
+                    Severity::Warn,
+                    &format!("realtime: {what} REFUSED ({reason}); running without it"),
+                ),
+            }
+        }
+    }
 
     // I/O: inputs in, log out.
     let mut path = InputPath {

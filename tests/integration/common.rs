@@ -209,6 +209,11 @@ impl Proc {
         }
     }
 
+    /// The process id.
+    pub fn id(&self) -> u32 {
+        self.child.as_ref().expect("running").id()
+    }
+
     /// Waits up to `limit` for the process to exit by itself; its exit code, or a panic.
     pub fn wait(&mut self, limit: Duration, log: &Path) -> i32 {
         let mut c = self.child.take().expect("running");

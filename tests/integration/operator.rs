@@ -327,3 +327,90 @@ fn ping_measures_round_trips_to_a_running_node() {
         "{err}"
     );
 }
+
+/// The scheduling policy (0 = SCHED_OTHER, 1 = SCHED_FIFO) and real-time priority of thread
+/// `comm` of process `pid`, as the kernel reports them (`/proc/<pid>/task/<tid>/stat`).
+fn thread_policy(pid: u32, comm: &str) -> Option<(u32, u32)> {
+    for e in std::fs::read_dir(format!("/proc/{pid}/task")).ok()? {
+        let dir = e.ok()?.path();
+        if std::fs::read_to_string(dir.join("comm")).ok()?.trim() != comm {
+            continue;
+        }
+        let stat = std::fs::read_to_string(dir.join("stat")).ok()?;
+        // Fields after "pid (comm)": state is field 3; rt_priority 40, policy 41.
+        let rest: Vec<&str> = stat[stat.rfind(')')? + 2..].split(' ').collect();
+        return Some((rest[41 - 3].parse().ok()?, rest[40 - 3].parse().ok()?));
+    }
+    None
+}
+
+/// `[node] realtime = { priority = 10, lock_memory = true }`: with the privilege the
+/// kernel shows the control thread under SCHED_FIFO at priority 10 and the memory locked;
+/// without it (CAP_SYS_NICE and CAP_IPC_LOCK dropped from the bounding set) the node says
+/// what was refused and how to grant it, keeps commanding at normal priority, and exits 0.
+#[test]
+fn realtime_settings_apply_or_say_why_not() {
+    let dir = common::temp_dir("realtime");
+    let text = std::fs::read_to_string(cfg()).unwrap();
+    let text = text.replace(
+        "[node]\n",
+        "[node]\nrealtime = { priority = 10, lock_memory = true }\n",
+    );
+    let text = text.replace("\"../", &format!("\"{}/", common::root().display()));
+    let path = dir.join("rt.toml");
+    std::fs::write(&path, text).unwrap();
+    let path = path.display().to_string();
+    for (k, privileged) in [(0u16, true), (1, false)] {
+        let log = dir.join(format!("node{k}.log"));
+        let mut cmd = if privileged {
+            Command::new(env!("CARGO_BIN_EXE_crossym"))
+        } else {
+            let mut c = Command::new("setpriv");
+            c.args([
+                "--bounding-set",
+                "-sys_nice,-ipc_lock",
+                env!("CARGO_BIN_EXE_crossym"),
+            ]);
+            c
+        };
+        cmd.args(["node", "--config", &path]);
+        let mut node = Proc::spawn(cmd, "node", 93 + k, &log);
+        assert!(
+            common::wait_for_text(&log, "realtime: memory locked", Duration::from_secs(60)),
+            "{}",
+            common::log_tail(&log)
+        );
+        let text = std::fs::read_to_string(&log).unwrap();
+        let (policy, prio) = thread_policy(node.id(), "crossym-control").expect("control thread");
+        let locked_kb: u64 = std::fs::read_to_string(format!("/proc/{}/status", node.id()))
+            .unwrap()
+            .lines()
+            .find(|l| l.starts_with("VmLck:"))
+            .and_then(|l| l.split_whitespace().nth(1)?.parse().ok())
+            .unwrap();
+        if privileged && !text.contains("REFUSED") {
+            assert!(
+                text.contains("realtime: control thread SCHED_FIFO priority 10"),
+                "{text}"
+            );
+            assert_eq!((policy, prio), (1, 10), "{text}");
+            assert!(locked_kb > 1000, "VmLck {locked_kb} kB\n{text}");
+        } else if privileged {
+            eprintln!("realtime refused even unconfined here: {text}");
+        } else {
+            assert!(
+                text.contains("control thread SCHED_FIFO priority 10 REFUSED")
+                    && text.contains("CAP_SYS_NICE")
+                    && text.contains("running without it"),
+                "{text}"
+            );
+            assert!(
+                text.contains("mlockall") && text.contains("CAP_IPC_LOCK"),
+                "{text}"
+            );
+            assert_eq!(policy, 0, "{text}");
+            assert_eq!(locked_kb, 0, "{text}");
+        }
+        assert_eq!(node.term(), 0, "{}", common::log_tail(&log));
+    }
+}
