@@ -43,6 +43,16 @@ pub enum PipelineError {
         /// What is wrong.
         message: String,
     },
+    /// The demonstration asked for does not exist (`None`: none asked and no test one).
+    #[error("{}: the demonstrations are 1 … {count}: {names}", which.map_or_else(|| "no demonstration given and no test demonstration".to_string(), |w| format!("no demonstration {w}")))]
+    NoDemonstration {
+        /// The number asked for (1-based).
+        which: Option<usize>,
+        /// How many there are.
+        count: usize,
+        /// Their names, in number order.
+        names: String,
+    },
     /// Demonstrations could not be loaded.
     #[error(transparent)]
     Data(#[from] crate::data::DataError),
@@ -227,20 +237,19 @@ pub fn pick_demo(
     demos: &Demonstrations,
     which: Option<usize>,
 ) -> Result<&JointTrajectory, PipelineError> {
-    let bad = |message: String| PipelineError::Invalid {
-        path: PathBuf::from("[demonstrations]"),
-        message,
+    let missing = |which: Option<usize>| PipelineError::NoDemonstration {
+        which,
+        count: demos.demos.len(),
+        names: demos.names.join(", "),
     };
     let which = which
         .or_else(|| demos.test.first().copied())
-        .ok_or_else(|| bad("no demonstration given and no test demonstration".into()))?;
-    demos.demos.iter().find(|d| d.demo == which).ok_or_else(|| {
-        bad(format!(
-            "no demonstration {which} (have 1..={}: {})",
-            demos.demos.len(),
-            demos.names.join(", ")
-        ))
-    })
+        .ok_or_else(|| missing(None))?;
+    demos
+        .demos
+        .iter()
+        .find(|d| d.demo == which)
+        .ok_or_else(|| missing(Some(which)))
 }
 
 /// What [`train`] produced.
