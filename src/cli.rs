@@ -205,6 +205,17 @@ enum BagCommand {
     },
 }
 
+impl Cli {
+    /// One-shot commands whose output may be piped into `head`; the long-running node
+    /// and mock hardware handle their own shutdown (a final command) and keep the default.
+    pub fn ends_quietly_on_closed_pipe(&self) -> bool {
+        !matches!(
+            self.command,
+            Command::Node { .. } | Command::MockHw { .. } | Command::Demo(_)
+        )
+    }
+}
+
 /// Runs one subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {

@@ -28,6 +28,14 @@ fn main() -> ExitCode {
     }
     env_logger::Builder::new().parse_filters(&filter).init();
     let args = cli::Cli::parse();
+    if args.ends_quietly_on_closed_pipe() {
+        // `crossym ping | head -1`: end like any Unix tool when the reader goes away, not
+        // with a panic in `println!` (Rust ignores SIGPIPE by default).
+        // SAFETY: restoring a signal's default disposition before any thread starts.
+        unsafe {
+            libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        }
+    }
     match cli::run(args) {
         Ok(code) => code,
         Err(e) => {
