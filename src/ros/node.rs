@@ -435,7 +435,14 @@ impl InputPath {
                 &format!("rejected joint_states: {}", r.explain(&self.names)),
             );
         }
+        // Stamped before the hand-over: a control thread that wakes on its own between the
+        // two must not pair the new inputs with the previous stamp.
+        if self.wake.is_some() {
+            self.handed_ns.store(wall_ns(), Ordering::Release);
+        }
         self.hand_over();
+        // Recorded before the wake-up, so the bag keeps each joint state ahead of the command
+        // computed from it.
         if let Some(r) = &self.recorder {
             r.send(RecordItem::JointState(
                 m,
@@ -444,7 +451,6 @@ impl InputPath {
             ));
         }
         if let Some(t) = &self.wake {
-            self.handed_ns.store(wall_ns(), Ordering::Release);
             t.unpark();
         }
     }
