@@ -643,9 +643,7 @@ fn augment(path: &PathBuf, plot: Option<&std::path::Path>) -> anyhow::Result<Exi
                 &cfg.eval,
             )
         };
-        if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        }
+        crossym::pipeline::create_parent(png)?;
         write_paths_grid(png, &fig, &panels, panels.len(), 400).map_err(anyhow::Error::msg)?;
         println!("wrote {}", png.display());
     }
@@ -714,9 +712,7 @@ fn train(
     })?;
     let (policy, report) = (trained.policy, trained.report);
     bar.finish_and_clear();
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
+    crossym::pipeline::create_parent(out)?;
     policy.save(out)?;
     let log_path = out.with_extension("loss.csv");
     std::fs::write(&log_path, &log).with_context(|| format!("writing {}", log_path.display()))?;

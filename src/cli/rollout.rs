@@ -152,9 +152,7 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
         }
         csv.push('\n');
     }
-    if let Some(dir) = a.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
+    crossym::pipeline::create_parent(&a.out)?;
     std::fs::write(&a.out, &csv).with_context(|| format!("writing {}", a.out.display()))?;
 
     println!(

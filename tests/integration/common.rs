@@ -294,23 +294,63 @@ pub fn wait_for_text(p: &Path, needle: &str, deadline: std::time::Duration) -> b
     false
 }
 
-/// The first `crossym_msgs/Status` on `sub` for which `pred` holds, or `None` after
-/// `timeout` (polling every 5 ms).
-pub fn first_status(
-    sub: &ros2_client::Subscription<crossym::ros::msg::Status>,
-    timeout: std::time::Duration,
-    mut pred: impl FnMut(&crossym::ros::msg::Status) -> bool,
-) -> Option<crossym::ros::msg::Status> {
-    let deadline = std::time::Instant::now() + timeout;
-    loop {
-        while let Ok(Some((s, _))) = sub.take() {
-            if pred(&s) {
-                return Some(s);
+/// A DDS observer in the test process: a node's `~/status` and the joint states, so a test
+/// waits for counts and events (with generous deadlines) instead of sleeping.
+pub struct Watch {
+    pub status: ros2_client::Subscription<crossym::ros::msg::Status>,
+    pub joint_states: ros2_client::Subscription<crossym::ros::msg::JointState>,
+    _node: ros2_client::Node,
+    _ctx: ros2_client::Context,
+}
+
+impl Watch {
+    /// Subscribes on `domain` (localhost) to `status` (reliable) and `joint_states`
+    /// (sensor QoS) as node `crossym_test_<tag>_<pid>_<domain>`.
+    pub fn new(domain: u16, tag: &str, status: &str, joint_states: &str) -> Watch {
+        use crossym::ros::dds;
+        let ctx = dds::DdsSettings {
+            domain_id: domain,
+            range: dds::DiscoveryRange::Localhost,
+        }
+        .context()
+        .expect("DDS context");
+        let name = format!("crossym_test_{tag}_{}_{domain}", std::process::id());
+        let mut node = ctx
+            .new_node(
+                dds::node_name("/", &name).unwrap(),
+                ros2_client::NodeOptions::new().enable_rosout(false),
+            )
+            .expect("DDS node");
+        let status = dds::subscription(&mut node, status, dds::qos_reliable(100))
+            .expect("status subscription");
+        let joint_states = dds::subscription(&mut node, joint_states, dds::qos_sensor())
+            .expect("joint-state subscription");
+        Watch {
+            status,
+            joint_states,
+            _node: node,
+            _ctx: ctx,
+        }
+    }
+
+    /// The first status (oldest first) for which `pred` holds, or `None` after `timeout`
+    /// (polling every 5 ms).
+    pub fn wait_status(
+        &self,
+        timeout: std::time::Duration,
+        mut pred: impl FnMut(&crossym::ros::msg::Status) -> bool,
+    ) -> Option<crossym::ros::msg::Status> {
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            while let Ok(Some((s, _))) = self.status.take() {
+                if pred(&s) {
+                    return Some(s);
+                }
             }
+            if std::time::Instant::now() > deadline {
+                return None;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
         }
-        if std::time::Instant::now() > deadline {
-            return None;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(5));
     }
 }

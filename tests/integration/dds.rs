@@ -22,7 +22,7 @@ use crossym::sim::MockHwSummary;
 use crossym::symmetry::compose::Condition;
 
 use crate::common;
-use crate::common::Proc;
+use crate::common::{Proc, Watch};
 
 fn exe() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_crossym"))
@@ -39,54 +39,20 @@ fn spawn(name: &str, args: &[&str], domain: u16, log: &Path) -> Proc {
     Proc::spawn(c, name, domain, log)
 }
 
-/// A DDS observer in the test process: the node's status and the joint states, so a test
-/// waits for counts and events (with generous deadlines) instead of sleeping.
-struct Watch {
-    status: ros2_client::Subscription<msg::Status>,
-    joint_states: ros2_client::Subscription<msg::JointState>,
-    _node: ros2_client::Node,
-    _ctx: ros2_client::Context,
+/// The observer for the node configured by `cfg` (its status and joint-state topics).
+fn watch(domain: u16, cfg: &Config) -> Watch {
+    let topics = ScenarioTopics::new(cfg.node.as_ref().expect("[node]"), "/mock_hw/reset");
+    Watch::new(domain, "watch", &topics.status, &topics.joint_states)
 }
 
-impl Watch {
-    /// Subscribes to the node's status and the joint states of the node configured by `cfg`.
-    fn new(domain: u16, cfg: &Config) -> Watch {
-        let node_cfg = cfg.node.as_ref().expect("[node]");
-        let topics = ScenarioTopics::new(node_cfg, "/mock_hw/reset");
-        let settings = DdsSettings {
-            domain_id: domain,
-            range: DiscoveryRange::Localhost,
-        };
-        let ctx = settings.context().expect("DDS context");
-        let name = format!("crossym_test_watch_{}_{domain}", std::process::id());
-        let mut node = ctx
-            .new_node(
-                dds::node_name("/", &name).unwrap(),
-                ros2_client::NodeOptions::new().enable_rosout(false),
-            )
-            .expect("DDS node");
-        let status = dds::subscription(&mut node, &topics.status, dds::qos_reliable(100)).unwrap();
-        let joint_states =
-            dds::subscription(&mut node, &topics.joint_states, dds::qos_sensor()).unwrap();
-        Watch {
-            status,
-            joint_states,
-            _node: node,
-            _ctx: ctx,
-        }
-    }
-
-    /// The first status (oldest first) for which `pred` holds, within `timeout`.
-    fn wait_status(
-        &self,
-        timeout: Duration,
-        pred: impl FnMut(&msg::Status) -> bool,
-    ) -> Option<msg::Status> {
-        common::first_status(&self.status, timeout, pred)
-    }
-
+/// Waits of the DDS tests beyond [`Watch::wait_status`].
+trait WaitStill {
     /// True once `n` consecutive joint states carry the same positions (the robot stands
     /// still), false if that does not happen within `timeout`.
+    fn wait_still(&self, n: usize, timeout: Duration) -> bool;
+}
+
+impl WaitStill for Watch {
     fn wait_still(&self, n: usize, timeout: Duration) -> bool {
         let deadline = Instant::now() + timeout;
         let (mut last, mut same): (Vec<f64>, usize) = (Vec::new(), 0);
@@ -251,7 +217,7 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
         range: DiscoveryRange::Localhost,
     };
     let topics = ScenarioTopics::new(&node_cfg, "/mock_hw/reset");
-    let watch = Watch::new(domain, &cfg);
+    let watch = watch(domain, &cfg);
     let results = scenario::run(
         settings,
         &topics,
@@ -511,7 +477,7 @@ fn live_replay_feeds_a_node() {
     // The player waits a fixed 2 s for discovery before its first sample: start it once the
     // node is up (its first status), so the node's start-up does not eat into them.
     let cfg = Config::from_file(&cfg_s).unwrap();
-    let watch = Watch::new(domain, &cfg);
+    let watch = watch(domain, &cfg);
     assert!(
         watch.wait_status(DEADLINE, |_| true).is_some(),
         "no status from the node within {DEADLINE:?}\n{}",
@@ -604,7 +570,7 @@ fn standalone_recorder_over_dds() {
         &dir.join("node.log"),
     );
     // Record once the node runs on the mock hardware's joint states (a status not stale).
-    let watch = Watch::new(domain, &Config::from_file(&cfg_s).unwrap());
+    let watch = watch(domain, &Config::from_file(&cfg_s).unwrap());
     assert!(
         watch
             .wait_status(DEADLINE, |s| s.code != StatusCode::StaleJointStates as i8)

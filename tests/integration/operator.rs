@@ -268,16 +268,7 @@ fn ping_measures_round_trips_to_a_running_node() {
     );
     // "ping: N round trips at R Hz: median … µs, p99 … µs, p99.9 … µs, max … µs; L lost …"
     let line = text.lines().find(|l| l.starts_with("ping: ")).unwrap();
-    let num = |after: &str| -> f64 {
-        line.split(after)
-            .nth(1)
-            .unwrap()
-            .split_whitespace()
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap()
-    };
+    let num = |after: &str| number_after(line, after);
     let (n, median, p99, max) = (num("ping: "), num("median "), num("p99 "), num("max "));
     let lost = num("µs; ");
     let stray = num("ms), ");
@@ -288,15 +279,10 @@ fn ping_measures_round_trips_to_a_running_node() {
     // The split of each round trip by the DDS stamps: the probe's command was published
     // after the probe (a positive forward part) and the parts are in order.
     let part = |label: &str| -> f64 {
-        let l = text.lines().find(|l| l.contains(label)).expect(label);
-        l.split("median ")
-            .nth(1)
-            .unwrap()
-            .split_whitespace()
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap()
+        number_after(
+            text.lines().find(|l| l.contains(label)).expect(label),
+            "median ",
+        )
     };
     let (fwd, back, wake) = (
         part("probe published → command published"),
@@ -326,6 +312,15 @@ fn ping_measures_round_trips_to_a_running_node() {
         err.contains("no command on /forward_velocity_controller/commands"),
         "{err}"
     );
+}
+
+/// The number that follows the first `after` in `line` (panics with the line otherwise).
+fn number_after(line: &str, after: &str) -> f64 {
+    line.split(after)
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no number after `{after}` in: {line}"))
 }
 
 /// The scheduling policy (0 = SCHED_OTHER, 1 = SCHED_FIFO) and real-time priority of thread

@@ -25,11 +25,10 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use crossym::data::recording::{open_joint_states, JointRecording, StampSource};
-use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
 use crossym::ros::msg;
 use crossym::sim::MockHwSummary;
 
-use crate::common::{self, Proc};
+use crate::common::{self, Proc, Watch};
 
 const DOMAIN_RECORD: u16 = 101;
 const DOMAIN_IDENTITY: u16 = 102;
@@ -200,42 +199,13 @@ fn start_recorder(out: &Path, domain: u16, log: &Path) -> Proc {
     p
 }
 
-/// A DDS observer in the test process: the node's status and the joint states.
-struct Watch {
-    status: ros2_client::Subscription<msg::Status>,
-    joint_states: ros2_client::Subscription<msg::JointState>,
-    _node: ros2_client::Node,
-    _ctx: ros2_client::Context,
+/// Waits of the teach test on a [`Watch`] of the node.
+trait TeachWaits {
+    /// True once a joint state arrived (within [`DEADLINE`]).
+    fn wait_joint_state(&self) -> bool;
 }
 
-impl Watch {
-    fn new(domain: u16) -> Watch {
-        let ctx = DdsSettings {
-            domain_id: domain,
-            range: DiscoveryRange::Localhost,
-        }
-        .context()
-        .expect("DDS context");
-        let name = format!("crossym_test_teach_{}_{domain}", std::process::id());
-        let mut node = ctx
-            .new_node(
-                dds::node_name("/", &name).unwrap(),
-                ros2_client::NodeOptions::new().enable_rosout(false),
-            )
-            .expect("DDS node");
-        let status = dds::subscription(&mut node, "/crossym/status", dds::qos_reliable(100))
-            .expect("status subscription");
-        let joint_states = dds::subscription(&mut node, "/joint_states", dds::qos_sensor())
-            .expect("joint-state subscription");
-        Watch {
-            status,
-            joint_states,
-            _node: node,
-            _ctx: ctx,
-        }
-    }
-
-    /// True once a joint state arrived (within [`DEADLINE`]).
+impl TeachWaits for Watch {
     fn wait_joint_state(&self) -> bool {
         let deadline = Instant::now() + DEADLINE;
         while Instant::now() < deadline {
@@ -245,11 +215,6 @@ impl Watch {
             std::thread::sleep(Duration::from_millis(5));
         }
         false
-    }
-
-    /// The first status for which `pred` holds, within [`DEADLINE`].
-    fn wait_status(&self, pred: impl FnMut(&msg::Status) -> bool) -> Option<msg::Status> {
-        common::first_status(&self.status, DEADLINE, pred)
     }
 }
 
@@ -457,7 +422,7 @@ fn reproduce(dir: &Path, cfg: &Path, tag: &str, domain: u16, script: &Script) ->
     );
     let bag = dir.join(format!("{tag}-bag"));
     let mut rec = start_recorder(&bag, domain, &log("record"));
-    let watch = Watch::new(domain);
+    let watch = Watch::new(domain, "teach", "/crossym/status", "/joint_states");
     assert!(
         watch.wait_joint_state(),
         "no joint state from the mock hardware within {DEADLINE:?}\n{}",
@@ -469,7 +434,7 @@ fn reproduce(dir: &Path, cfg: &Path, tag: &str, domain: u16, script: &Script) ->
     let mut node = spawn("node", &["node", "--config", c], domain, &log("node"));
     // 500 ticks commanding the policy (5 s at 100 Hz): the move takes ≈ 2 s.
     const TICKS: u64 = 500;
-    let status = watch.wait_status(|s| s.ticks.saturating_sub(s.stale_ticks) >= TICKS);
+    let status = watch.wait_status(DEADLINE, |s| s.ticks.saturating_sub(s.stale_ticks) >= TICKS);
     let status = status.unwrap_or_else(|| {
         panic!(
             "{tag}: the node did not command {TICKS} ticks within {DEADLINE:?}\n{}",
