@@ -11,7 +11,7 @@ use anyhow::Context;
 use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::plot::{condition_label, write_paths_png, PathFigure, PathPanel, XY_VIEW};
-use crossym::eval::{rollout, score_path, RolloutStatus};
+use crossym::eval::{nominal_at, rollout, samples_spanning, score_path_timed, RolloutStatus};
 
 /// Options of `crossym rollout`.
 #[derive(Debug, clap::Args)]
@@ -36,7 +36,7 @@ pub struct RolloutArgs {
     /// Integration step Δt (s); default: the demonstration's, else `[node] period_s`.
     #[arg(long, allow_hyphen_values = true)]
     pub dt: Option<f64>,
-    /// Duration (s); default: the demonstration's length, else 10 s.
+    /// Duration (s); default: the demonstration's time length (whatever `--dt`), else 10 s.
     #[arg(long, allow_hyphen_values = true)]
     pub duration_s: Option<f64>,
     /// Output CSV: `t`, then `q_<joint>`, `qdot_<joint>`, `x<i>` (and `x<i>_nominal` with a
@@ -115,11 +115,11 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
             );
             (d / dt).round() as usize + 1
         }
-        (None, Some(t)) => t.len(),
+        (None, Some(t)) => samples_spanning(t, dt),
         (None, None) => (10.0 / dt).round() as usize + 1,
     };
     let r = rollout(&policy, kin, &q0, &condition, dt, len);
-    let (t, (n, m)) = (&r.traj, (r.traj.n, r.traj.m));
+    let (t, m) = (&r.traj, r.traj.m);
 
     // CSV: one row per sample.
     let names = kin.joint_names();
@@ -139,14 +139,16 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
         }
     }
     csv.push('\n');
+    let mut x_nominal = vec![0.0; m];
     for k in 0..t.len() {
         write!(csv, "{}", k as f64 * dt)?;
         for v in t.q(k).iter().chain(t.qdot(k)).chain(t.x(k)) {
             write!(csv, ",{v}")?;
         }
         if let Some(nom) = &nominal {
-            // Past the nominal's end its goal stands for the remaining samples.
-            for v in nom.x(k.min(nom.len() - 1)) {
+            // At the sample's time; past the nominal's end its goal stands.
+            nominal_at(nom, k as f64 * dt, &mut x_nominal);
+            for v in &x_nominal {
                 write!(csv, ",{v}")?;
             }
         }
@@ -193,15 +195,13 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
     }
     println!("  samples outside the joint limits: {outside}");
     if let Some(nom) = &nominal {
-        // Score over the samples both have (the rollout may be shorter or longer).
-        let k = t.len().min(nom.len());
-        let mut cut = nom.clone();
-        cut.q.truncate(k * n);
-        cut.qdot.truncate(k * n);
-        cut.x.truncate(k * m);
-        let s = score_path(&cut, &t.x[..k * m], &cfg.eval);
+        // Sample by sample at the same times (the nominal interpolated when `--dt` differs
+        // from its step, its goal past its end).
+        let s = score_path_timed(nom, &t.x, dt, &cfg.eval);
         println!(
-            "  RMSE against the nominal over {k} samples: {:.4} Euclidean, {:.4} per coordinate (task units){}",
+            "  RMSE against the nominal over {} samples ({:.2} s): {:.4} Euclidean, {:.4} per coordinate (task units){}",
+            t.len(),
+            (t.len() - 1) as f64 * dt,
             s.rmse,
             s.rmse / (m as f64).sqrt(),
             if s.diverged { "; DIVERGED" } else { "" }

@@ -19,6 +19,7 @@
 //! sample-wise mean. A policy that memorised the closest demonstration would score the
 //! former; it calibrates what the test demonstrations' own variability allows.
 
+pub mod paper;
 pub mod plot;
 
 use rayon::prelude::*;
@@ -49,6 +50,9 @@ pub struct EvalConfig {
     /// (relative to the config file's directory).
     #[serde(default)]
     pub policies: std::collections::BTreeMap<String, std::path::PathBuf>,
+    /// How `crossym eval --protocol paper` scores (default: Table II's pooled script).
+    #[serde(default)]
+    pub paper_protocol: paper::PaperProtocol,
 }
 
 fn d_div() -> f64 {
@@ -66,6 +70,7 @@ impl Default for EvalConfig {
             view: None,
             units: d_units(),
             policies: Default::default(),
+            paper_protocol: Default::default(),
         }
     }
 }
@@ -96,17 +101,74 @@ pub fn score(
 }
 
 /// Scores an executed task-space path (row-major `len × m`, NaN from where it turned
-/// non-finite, as [`rollout_path`] returns it) against the trajectory's nominal one: the
-/// Euclidean RMSE over all samples, a non-finite sample counting with the last finite
-/// error, and whether it diverged (non-finite, or an error above the threshold).
+/// non-finite, as [`rollout_path`] returns it) sampled at the trajectory's own step:
+/// [`score_path_timed`] with `dt = traj.dt`.
 pub fn score_path(traj: &JointTrajectory, executed: &[f64], cfg: &EvalConfig) -> RolloutScore {
-    let m = traj.m;
+    score_path_timed(traj, executed, traj.dt, cfg)
+}
+
+/// The nominal trajectory's task point at time `t` (s after its first sample) into `out`
+/// (`m` values, task units): linear interpolation between the samples at `k Δt`; before
+/// the start its first sample, past its end its last one (the goal).
+///
+/// ```
+/// # use crossym::data::letters::JointTrajectory;
+/// let traj = JointTrajectory { demo: 1, n: 1, m: 1, dt: 0.5, q: vec![0.0; 3], qdot: vec![0.0; 3], x: vec![0.0, 1.0, 3.0] };
+/// let mut x = [0.0];
+/// crossym::eval::nominal_at(&traj, 0.75, &mut x);
+/// assert_eq!(x[0], 2.0); // halfway between 1 (t = 0.5 s) and 3 (t = 1 s)
+/// crossym::eval::nominal_at(&traj, 9.0, &mut x);
+/// assert_eq!(x[0], 3.0); // the goal past the end
+/// ```
+pub fn nominal_at(traj: &JointTrajectory, t: f64, out: &mut [f64]) {
     let len = traj.len();
+    if len == 0 {
+        out.fill(f64::NAN);
+        return;
+    }
+    let u = (t / traj.dt).max(0.0);
+    // A time within 1e-9 samples of a sample's is that sample, exactly (`k Δt / Δt` need
+    // not be `k` in floating point).
+    let u = if (u - u.round()).abs() < 1e-9 {
+        u.round()
+    } else {
+        u
+    };
+    let k = (u.floor() as usize).min(len - 1);
+    let w = if k + 1 < len { u - k as f64 } else { 0.0 };
+    let (a, b) = (traj.x(k), traj.x((k + 1).min(len - 1)));
+    for ((o, &a), &b) in out.iter_mut().zip(a).zip(b) {
+        *o = if w == 0.0 { a } else { a + w * (b - a) };
+    }
+}
+
+/// Scores an executed task-space path sampled every `dt` s (row-major `len × m`, NaN from
+/// where it turned non-finite) against the nominal trajectory **at the same times**
+/// ([`nominal_at`]: interpolated when `dt` differs from the nominal's step, its goal past
+/// its end): the Euclidean RMSE over the executed samples, a non-finite sample counting
+/// with the last finite error, and whether it diverged (non-finite, or an error above the
+/// threshold).
+pub fn score_path_timed(
+    traj: &JointTrajectory,
+    executed: &[f64],
+    dt: f64,
+    cfg: &EvalConfig,
+) -> RolloutScore {
+    let m = traj.m;
+    let len = executed.len() / m.max(1);
+    let same_step = dt == traj.dt;
+    let mut nominal = vec![0.0; m];
     let (mut sum, mut last_err, mut diverged) = (0.0, 0.0, false);
     for k in 0..len {
+        let x: &[f64] = if same_step && k < traj.len() {
+            traj.x(k)
+        } else {
+            nominal_at(traj, k as f64 * dt, &mut nominal);
+            &nominal
+        };
         let e = executed[k * m..(k + 1) * m]
             .iter()
-            .zip(traj.x(k))
+            .zip(x)
             .map(|(a, b)| (a - b) * (a - b))
             .sum::<f64>()
             .sqrt();
@@ -122,6 +184,13 @@ pub fn score_path(traj: &JointTrajectory, executed: &[f64], cfg: &EvalConfig) ->
         rmse: (sum / len.max(1) as f64).sqrt(),
         diverged,
     }
+}
+
+/// Number of samples a rollout at step `dt` needs to span the nominal trajectory's time
+/// length `(len − 1) Δt_nominal` (at least 1).
+pub fn samples_spanning(traj: &JointTrajectory, dt: f64) -> usize {
+    let duration = traj.len().saturating_sub(1) as f64 * traj.dt;
+    (duration / dt).round() as usize + 1
 }
 
 /// A policy rolled out open loop from a start configuration ([`rollout`]).

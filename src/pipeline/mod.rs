@@ -8,6 +8,7 @@
 //! - [`build`]: demonstrations and the augmented sets a step needs ([`Splits`]).
 //! - [`train`]: a policy on a sub-group's augmented training set.
 //! - [`table2`]: every test trajectory rolled out per policy, Table II's cells and files.
+//! - [`paper`]: Table II under the paper's own evaluation protocol.
 //! - [`figures`]: the conditions a figure shows per sub-group, with a caption.
 
 use std::path::{Path, PathBuf};
@@ -21,6 +22,7 @@ use crate::policy::{Policy, PolicyMeta, TaskFeatures, TrainConfig, TrainReport};
 use crate::symmetry::check::BuiltSymmetry;
 
 pub mod figures;
+pub mod paper;
 pub mod table2;
 
 /// Why a pipeline step failed.
@@ -295,6 +297,17 @@ pub fn train(
         report,
         trajectories: data.len(),
     })
+}
+
+/// Writes `text` to `dir/name`, creating `dir` as needed; returns the path.
+pub fn write_text(dir: &Path, name: &str, text: &str) -> Result<PathBuf, PipelineError> {
+    let path = dir.join(name);
+    create_parent(&path)?;
+    std::fs::write(&path, text).map_err(|e| PipelineError::Write {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    Ok(path)
 }
 
 /// Creates the parent directory of `file` (if any).

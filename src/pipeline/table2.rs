@@ -265,15 +265,7 @@ pub fn table2(
          to the previous set (rotations, scalings, reflection) on the first test \
          demonstration; grey nominal, colour rollout (blue left arm, red right).\n",
     );
-    let write = |name: &str, text: &str| -> Result<PathBuf, PipelineError> {
-        let path = out.join(name);
-        create_parent(&path)?;
-        std::fs::write(&path, text).map_err(|e| PipelineError::Write {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        Ok(path)
-    };
+    let write = |name: &str, text: &str| super::write_text(out, name, text);
     Ok(Table2Files {
         markdown: write("table2.md", &md)?,
         csv: write("table2.csv", &csv)?,

@@ -225,6 +225,16 @@ fn rollout_records_states_velocities_and_task_path() {
     assert!(t.q[sample * 8..].iter().all(|v| v.is_nan()));
 }
 
+/// The Euclidean RMSE `crossym rollout` printed against the nominal.
+fn reported_rmse(text: &str) -> f64 {
+    text.split("RMSE against the nominal over ")
+        .nth(1)
+        .and_then(|t| t.split(": ").nth(1))
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no RMSE in {text}"))
+}
+
 #[test]
 fn rollout_cli_writes_the_library_rollout_and_scores_it_as_eval() {
     let dir = common::temp_dir("rollout");
@@ -289,13 +299,7 @@ fn rollout_cli_writes_the_library_rollout_and_scores_it_as_eval() {
         .traj;
     let policy = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
     let expect = score(&policy, kin, &nominal, &s, &cfg.eval);
-    let reported: f64 = text
-        .split("RMSE against the nominal over ")
-        .nth(1)
-        .and_then(|t| t.split(": ").nth(1))
-        .and_then(|t| t.split(' ').next())
-        .and_then(|t| t.parse().ok())
-        .unwrap_or_else(|| panic!("no RMSE in {text}"));
+    let reported = reported_rmse(&text);
     assert!(
         (reported - expect.rmse).abs() < 1e-4,
         "{reported} vs {expect:?}"
@@ -345,4 +349,162 @@ fn rollout_cli_writes_the_library_rollout_and_scores_it_as_eval() {
         assert!(err.contains(message), "{args:?}: {err}");
         assert!(!bad.exists(), "{args:?}");
     }
+}
+
+/// `crossym rollout --dt` finer than the demonstration's step integrates over the
+/// demonstration's *time* length and scores against the nominal at the same times: the
+/// nominal column is the demonstration interpolated in time (checked here from the
+/// nominal samples), the reported RMSE is the one of the CSV's own columns (recomputed
+/// here) and close to the one at the demonstration's step (a rollout compared index by
+/// index against the 0.01 s samples would report 1.4 and "DIVERGED").
+#[test]
+fn rollout_at_another_step_is_scored_by_time() {
+    let dir = common::temp_dir("rollout-dt");
+    let csv = dir.join("r.csv");
+    let config = common::path("config/letters.toml");
+    let text = common::run_ok(
+        common::crossym([
+            "rollout",
+            "--demo",
+            "6",
+            "--condition",
+            "0:1:1",
+            "--dt",
+            "0.002",
+        ])
+        .arg("--config")
+        .arg(&config)
+        .arg("--out")
+        .arg(&csv),
+    );
+    assert!(!text.contains("DIVERGED"), "{text}");
+    let (cfg, robot, demos) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let nominal = demos.demos.iter().find(|d| d.demo == 6).unwrap();
+    let body = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<Vec<f64>> = body
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // 5 steps of 0.002 s per 0.01 s sample: (len − 1) · 5 + 1 rows, the last at the
+    // demonstration's end time.
+    assert_eq!(nominal.dt, 0.01);
+    assert_eq!(rows.len(), (nominal.len() - 1) * 5 + 1);
+    let end = (nominal.len() - 1) as f64 * 0.01;
+    assert!((rows.last().unwrap()[0] - end).abs() < 1e-9);
+    let mut sum = 0.0;
+    for (k, row) in rows.iter().enumerate() {
+        // Sample j and the next one, weight (k mod 5) / 5.
+        let (j, w) = (k / 5, (k % 5) as f64 / 5.0);
+        let (a, b) = (nominal.x(j), nominal.x((j + 1).min(nominal.len() - 1)));
+        for i in 0..4 {
+            let expect = a[i] + w * (b[i] - a[i]);
+            assert!((row[21 + i] - expect).abs() < 1e-9, "row {k} x{i}");
+            sum += (row[17 + i] - row[21 + i]).powi(2);
+        }
+    }
+    let rmse = (sum / rows.len() as f64).sqrt();
+    let reported = reported_rmse(&text);
+    assert!((reported - rmse).abs() < 1e-3, "{reported} vs {rmse}");
+    // At the demonstration's own step (the library's eval), within 5 %.
+    let policy = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let at_step = score(&policy, kin, nominal, &Condition::IDENTITY, &cfg.eval).rmse;
+    assert!(
+        (rmse - at_step).abs() < 0.05 * at_step,
+        "{rmse} at 0.002 s vs {at_step} at 0.01 s"
+    );
+}
+
+/// `pipeline::paper::table2_paper` on a small grid (training {identity, (90°, 0.5, −1)},
+/// test {identity, (45°, 0.7, 1)}): the pool is the training and test trajectories
+/// together (counts per nested set), and the Original cell equals the protocol recomputed
+/// here from plain rollouts: every identity trajectory (5 training + 2 test) rolled out
+/// from sample 60 for `min(len) − 60` samples, `√(mean of the per-trajectory MSEs)` and the
+/// population std of those MSEs.
+#[test]
+fn paper_protocol_table_pools_train_and_test_and_matches_a_recomputation() {
+    use crossym::data::augmentation::GroupGrid;
+    let (mut cfg, robot, _) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let grid = |c: Vec<[f64; 3]>| GroupGrid {
+        conditions: Some(c),
+        ..GroupGrid::identity()
+    };
+    let aug = cfg.augmentation.as_mut().unwrap();
+    aug.train = grid(vec![[0.0, 1.0, 1.0], [90.0, 0.5, -1.0]]);
+    aug.test = grid(vec![[0.0, 1.0, 1.0], [45.0, 0.7, 1.0]]);
+    let p = crossym::pipeline::build(&cfg, kin, crossym::pipeline::paper::splits(&cfg), &|_| {})
+        .unwrap();
+    assert_eq!(
+        (p.train.trajectories.len(), p.test.trajectories.len()),
+        (10, 4)
+    );
+    let policy = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let dir = common::temp_dir("paper-protocol");
+    let mut rows = Vec::new();
+    let files = crossym::pipeline::paper::table2_paper(
+        &cfg,
+        kin,
+        &[("pi_MRT".into(), policy.clone())],
+        &p,
+        &dir,
+        |r| rows.push(r.to_string()),
+    )
+    .unwrap();
+    let md = std::fs::read_to_string(&files.markdown).unwrap();
+    assert!(
+        md.contains("| Policy | Original (7) | G_R (7) | G_RT (9) | G_MRT (14) |"),
+        "{md}"
+    );
+    assert_eq!(rows.len(), 1);
+    let csv = std::fs::read_to_string(&files.csv).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "policy,test_set,value,std,std_of,count,diverged");
+    assert_eq!(lines.len(), 5);
+    let original: Vec<&str> = lines[1].split(',').collect();
+    assert_eq!(&original[..2], &["pi_MRT", "Original"]);
+    assert_eq!((original[4], original[5]), ("std_mse", "7"));
+    // Independent recomputation of the Original cell.
+    let all: Vec<_> = p
+        .train
+        .trajectories
+        .iter()
+        .chain(&p.test.trajectories)
+        .collect();
+    let horizon = all.iter().map(|a| a.traj.len()).min().unwrap() - 60;
+    let mses: Vec<f64> = all
+        .iter()
+        .filter(|a| a.condition == Condition::IDENTITY)
+        .map(|a| {
+            let t = &a.traj;
+            let mut q = t.q(60).to_vec();
+            let mut v = vec![0.0; 8];
+            let mut ws = policy.workspace();
+            let mut kws = kin.workspace();
+            let mut sum = 0.0;
+            for k in 0..horizon {
+                let x = kin.forward(&q, &mut kws);
+                for i in 0..4 {
+                    sum += (x[i] - t.x(60 + k)[i]).powi(2);
+                }
+                policy.velocity(&q, &Condition::IDENTITY, &mut v, &mut ws);
+                for j in 0..8 {
+                    q[j] += t.dt * v[j];
+                }
+            }
+            sum / (horizon * 4) as f64
+        })
+        .collect();
+    assert_eq!(mses.len(), 7);
+    let mean = mses.iter().sum::<f64>() / 7.0;
+    let std = (mses.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / 7.0).sqrt();
+    let value: f64 = original[2].parse().unwrap();
+    let reported_std: f64 = original[3].parse().unwrap();
+    assert!(
+        (value - mean.sqrt()).abs() < 1e-9,
+        "{value} vs {}",
+        mean.sqrt()
+    );
+    assert!((reported_std - std).abs() < 1e-9, "{reported_std} vs {std}");
 }
