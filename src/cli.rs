@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use crossym::config::Config;
+use crossym::eval::AnyPolicy;
 use crossym::pipeline::Splits;
 use crossym::symmetry::compose::Condition;
 
@@ -85,6 +86,12 @@ enum Command {
         /// real-robot tasks).
         #[arg(long, value_enum, default_value_t = Protocol::Heldout)]
         protocol: Protocol,
+        /// Evaluate the policy of this label canonicalised (repeatable): `π(q, s) =
+        /// dΦ_g π₀(Φ_g⁻¹ q)` with `π₀` the policy at the identity condition and `Φ_g` the
+        /// composed lifted action of `[composition]` — exactly equivariant for any
+        /// feasible condition.
+        #[arg(long = "canonicalise")]
+        canonicalise: Vec<String>,
     },
     /// The main job: mock hardware + node (in a private network namespace), symmetry
     /// conditions published as a user would, a per-condition table and a PNG of the letters.
@@ -293,7 +300,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             policies,
             out,
             protocol,
-        } => eval(&config, &policies, &out, protocol),
+            canonicalise,
+        } => eval(&config, &policies, &out, protocol, &canonicalise),
     }
 }
 
@@ -750,6 +758,7 @@ fn eval(
     policies: &[String],
     out: &std::path::Path,
     protocol: Protocol,
+    canonicalise: &[String],
 ) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(path)?;
     let robot = cfg.load_robot()?;
@@ -777,9 +786,32 @@ fn eval(
             })
             .collect::<anyhow::Result<_>>()?
     };
+    if let Some(l) = canonicalise
+        .iter()
+        .find(|l| !specs.iter().any(|(label, _)| label == *l))
+    {
+        anyhow::bail!("--canonicalise {l}: no policy labelled `{l}`");
+    }
+    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
     let mut loaded = Vec::new();
     for (label, file) in specs {
-        loaded.push((label, crossym::pipeline::load_policy_for(kin, &file)?));
+        let policy = crossym::pipeline::load_policy_for(kin, &file)?;
+        let policy = if canonicalise.contains(&label) {
+            let lift = crossym::symmetry::transfer::composed::ComposedLift::new(
+                kin,
+                &built,
+                &cfg.composition.order,
+                crossym::data::augmentation::letter_flow(),
+            )
+            .map_err(anyhow::Error::msg)
+            .with_context(|| format!("--canonicalise {label}"))?;
+            let eq = crossym::policy::EquivariantPolicy::new(policy, lift)
+                .map_err(anyhow::Error::msg)?;
+            AnyPolicy::Canonicalised(Box::new(eq))
+        } else {
+            AnyPolicy::Plain(Box::new(policy))
+        };
+        loaded.push((label, policy));
     }
     if protocol == Protocol::Paper {
         let p = pipeline(&cfg, kin, crossym::pipeline::paper::splits(&cfg))?;

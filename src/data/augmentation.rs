@@ -620,6 +620,18 @@ impl<'a> Augmenter<'a> {
     }
 }
 
+/// The lifted flows' settings of the letter task's augmenter (and of canonicalised
+/// policies): rtol 1e-7, atol 1e-9, warm-started (consecutive samples of a trajectory flow
+/// from nearby points).
+pub fn letter_flow() -> crate::symmetry::transfer::flow::FlowSettings {
+    crate::symmetry::transfer::flow::FlowSettings {
+        rtol: 1e-7,
+        atol: 1e-9,
+        warm_start: true,
+        ..Default::default()
+    }
+}
+
 /// The letter task's augmenter: `M`, `R`, `S` of `order` found in `built`, the lifted
 /// flows integrated at rtol 1e-7 / atol 1e-9 (task-space equivariance ≈ 3e-7 on the
 /// letters, whose tracking error is 4e-5), warm-started along each trajectory.
@@ -628,15 +640,8 @@ pub fn letter_augmenter<'a>(
     built: &'a [BuiltSymmetry],
     order: &[String],
 ) -> Result<Augmenter<'a>, String> {
-    use crate::symmetry::transfer::flow::FlowSettings;
     let (rho, rot, sc) = letter_group(built, order)?;
-    let flow = FlowSettings {
-        rtol: 1e-7,
-        atol: 1e-9,
-        // Consecutive samples of a trajectory flow from nearby points.
-        warm_start: true,
-        ..Default::default()
-    };
+    let flow = letter_flow();
     Augmenter::new(
         kin,
         LiftedAction::new(kin, rot, flow)?,

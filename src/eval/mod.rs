@@ -30,6 +30,98 @@ use crate::kinematics::Kinematics;
 use crate::policy::Policy;
 use crate::symmetry::compose::Condition;
 
+/// A symmetry-conditioned policy `π(q, s) → q̇` that evaluation can roll out: a plain
+/// [`Policy`] or a canonicalised [`crate::policy::EquivariantPolicy`].
+pub trait ConditionedPolicy: Sync {
+    /// Caller-owned scratch.
+    type Workspace;
+    /// Scratch sized for this policy.
+    fn rollout_workspace(&self) -> Self::Workspace;
+    /// `out = π(q, s)` (rad/s or m/s); `false` where the policy is undefined (a flow of a
+    /// canonicalised policy reached a singularity): the rollout stops there.
+    fn velocity_into(
+        &self,
+        q: &[f64],
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut Self::Workspace,
+    ) -> bool;
+}
+
+impl ConditionedPolicy for Policy {
+    type Workspace = crate::policy::PolicyWorkspace;
+    fn rollout_workspace(&self) -> Self::Workspace {
+        self.workspace()
+    }
+    fn velocity_into(
+        &self,
+        q: &[f64],
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut Self::Workspace,
+    ) -> bool {
+        self.velocity(q, s, out, ws);
+        true
+    }
+}
+
+impl ConditionedPolicy for crate::policy::EquivariantPolicy<'_> {
+    type Workspace = crate::policy::EquivariantWorkspace;
+    fn rollout_workspace(&self) -> Self::Workspace {
+        self.workspace()
+    }
+    fn velocity_into(
+        &self,
+        q: &[f64],
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut Self::Workspace,
+    ) -> bool {
+        self.velocity(q, s, out, ws).is_ok()
+    }
+}
+
+/// Either kind of policy, for a list evaluated side by side (`crossym eval`).
+pub enum AnyPolicy<'a> {
+    /// A plain `π(q, s)`.
+    Plain(Box<Policy>),
+    /// A base policy canonicalised by the composed lifted action.
+    Canonicalised(Box<crate::policy::EquivariantPolicy<'a>>),
+}
+
+/// Scratch of an [`AnyPolicy`].
+pub enum AnyWorkspace {
+    /// Of a plain policy.
+    Plain(Box<crate::policy::PolicyWorkspace>),
+    /// Of a canonicalised one.
+    Canonicalised(Box<crate::policy::EquivariantWorkspace>),
+}
+
+impl ConditionedPolicy for AnyPolicy<'_> {
+    type Workspace = AnyWorkspace;
+    fn rollout_workspace(&self) -> AnyWorkspace {
+        match self {
+            AnyPolicy::Plain(p) => AnyWorkspace::Plain(Box::new(p.workspace())),
+            AnyPolicy::Canonicalised(p) => AnyWorkspace::Canonicalised(Box::new(p.workspace())),
+        }
+    }
+    fn velocity_into(
+        &self,
+        q: &[f64],
+        s: &Condition,
+        out: &mut [f64],
+        ws: &mut AnyWorkspace,
+    ) -> bool {
+        match (self, ws) {
+            (AnyPolicy::Plain(p), AnyWorkspace::Plain(w)) => p.velocity_into(q, s, out, w),
+            (AnyPolicy::Canonicalised(p), AnyWorkspace::Canonicalised(w)) => {
+                p.velocity_into(q, s, out, w)
+            }
+            _ => false,
+        }
+    }
+}
+
 /// `[eval]` settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -90,8 +182,8 @@ pub struct RolloutScore {
 /// The rollout runs for the whole trajectory even after it diverged, so a diverged
 /// rollout's RMSE is its real error; only once it turns non-finite does integration stop,
 /// its last finite error standing for the remaining samples.
-pub fn score(
-    policy: &Policy,
+pub fn score<P: ConditionedPolicy + ?Sized>(
+    policy: &P,
     kin: &Kinematics,
     traj: &JointTrajectory,
     s: &Condition,
@@ -219,8 +311,8 @@ pub enum RolloutStatus {
 /// Integrates `q̂_{k+1} = q̂_k + Δt π(q̂_k, s)` (explicit Euler, as the node's velocity
 /// commands are held for a period) from `q0` for `len` samples, recording `q̂`, `π` and
 /// `f(q̂)`. Stops at the first non-finite state, filling the rest with NaN.
-pub fn rollout(
-    policy: &Policy,
+pub fn rollout<P: ConditionedPolicy + ?Sized>(
+    policy: &P,
     kin: &Kinematics,
     q0: &[f64],
     s: &Condition,
@@ -228,7 +320,7 @@ pub fn rollout(
     len: usize,
 ) -> Rollout {
     let (n, m) = (q0.len(), kin.task_dim());
-    let mut ws = policy.workspace();
+    let mut ws = policy.rollout_workspace();
     let mut kws = kin.workspace();
     let mut q = q0.to_vec();
     let mut v = vec![0.0; n];
@@ -254,7 +346,10 @@ pub fn rollout(
         t.x.extend(x.iter());
         t.q.extend_from_slice(&q);
         if k + 1 < len {
-            policy.velocity(&q, s, &mut v, &mut ws);
+            if !policy.velocity_into(&q, s, &mut v, &mut ws) {
+                // Undefined here: the next state is not finite.
+                v.fill(f64::NAN);
+            }
             for j in 0..n {
                 q[j] += dt * v[j];
             }
@@ -269,8 +364,8 @@ pub fn rollout(
 /// The task-space path `f(q̂_k)` of the policy rolled out from the trajectory's first
 /// configuration for as many steps as the trajectory has (row-major `len × m`, see
 /// [`rollout`]); a rollout that becomes non-finite stops there (the rest is NaN).
-pub fn rollout_path(
-    policy: &Policy,
+pub fn rollout_path<P: ConditionedPolicy + ?Sized>(
+    policy: &P,
     kin: &Kinematics,
     traj: &JointTrajectory,
     s: &Condition,
@@ -319,8 +414,8 @@ pub struct Cell {
 }
 
 /// Scores every trajectory of a test set (in parallel).
-pub fn evaluate(
-    policy: &Policy,
+pub fn evaluate<P: ConditionedPolicy + ?Sized>(
+    policy: &P,
     kin: &Kinematics,
     set: &[(&JointTrajectory, Condition)],
     cfg: &EvalConfig,

@@ -18,7 +18,6 @@ use crate::eval::paper::{
 };
 use crate::eval::plot::XY_VIEW;
 use crate::kinematics::Kinematics;
-use crate::policy::Policy;
 
 /// The files [`table2_paper`] wrote.
 #[derive(Debug, Clone)]
@@ -57,10 +56,10 @@ fn pool<'a>(cfg: &Config, p: &'a Pipeline) -> Vec<&'a Augmented> {
 /// Scores `policies` under `[eval] paper_protocol` on the pool of `p` (built with
 /// [`splits`]), writes `table2_paper.md` and `table2_paper.csv` into `out`, and passes each
 /// markdown row to `on_row` as it is ready.
-pub fn table2_paper(
+pub fn table2_paper<P: crate::eval::ConditionedPolicy>(
     cfg: &Config,
     kin: &Kinematics,
-    loaded: &[(String, Policy)],
+    loaded: &[(String, P)],
     p: &Pipeline,
     out: &Path,
     mut on_row: impl FnMut(&str),
@@ -201,8 +200,8 @@ fn cell_text(c: &PaperCell) -> String {
 
 /// The pooled protocol's `MSE_τ`: rolled out from sample `warmup` for `horizon` samples,
 /// compared with samples `warmup … warmup + horizon − 1`.
-fn pooled_error(
-    policy: &Policy,
+fn pooled_error<P: crate::eval::ConditionedPolicy>(
+    policy: &P,
     kin: &Kinematics,
     a: &Augmented,
     warmup: usize,
@@ -245,8 +244,8 @@ fn projection(cfg: &Config, kin: &Kinematics, protocol: PaperProtocol) -> Projec
 
 /// The resampled protocol's `RMSE_τ`: rolled out over the nominal's length, both paths
 /// projected and resampled to `points`.
-fn resampled_error(
-    policy: &Policy,
+fn resampled_error<P: crate::eval::ConditionedPolicy>(
+    policy: &P,
     kin: &Kinematics,
     a: &Augmented,
     project: &Projection,

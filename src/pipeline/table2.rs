@@ -13,7 +13,6 @@ use crate::config::Config;
 use crate::data::augmentation::SubGroup;
 use crate::eval::plot::{write_paths_grid, PathFigure, PathPanel, XY_VIEW};
 use crate::kinematics::Kinematics;
-use crate::policy::Policy;
 
 /// The files [`table2`] wrote.
 #[derive(Debug, Clone)]
@@ -31,10 +30,10 @@ pub struct Table2Files {
 /// Scores `policies` (label, policy) on `p.test` (built with `test` and `reference`),
 /// writes `table2.md`, `table2.csv`, `conditions.csv` and a figure per policy into `out`,
 /// and passes each table row (markdown) to `on_row` as it is ready.
-pub fn table2(
+pub fn table2<P: crate::eval::ConditionedPolicy>(
     cfg: &Config,
     kin: &Kinematics,
-    loaded: &[(String, Policy)],
+    loaded: &[(String, P)],
     p: &Pipeline,
     out: &Path,
     mut on_row: impl FnMut(&str),

@@ -9,6 +9,7 @@ mod common;
 mod data;
 mod dds;
 mod descend;
+mod equivariant;
 mod eval;
 mod faults;
 mod kinematics;
