@@ -6,7 +6,11 @@
 //! A rollout *diverges* when it becomes non-finite or its task error exceeds a threshold
 //! (default 3.0, the width of the normalised letter box); diverging rollouts are scored on
 //! their whole path (not capped at the threshold), stay in the mean ± std, as in the paper,
-//! and are counted.
+//! and are counted. A rollout at another step than the trajectory's is compared with the
+//! nominal at the same *times* ([`nominal_at`], [`score_path_timed`]), never index by index.
+//! [`paper`] holds the authors' own protocol (pooled training and test trajectories, or the
+//! resampled real-robot script); [`ConditionedPolicy`] lets a canonicalised policy be
+//! rolled out like a plain one.
 //!
 //! Units. The paper does not define its RMSE; Table II is reported in two conventions that
 //! differ by the constant `√m` (`m` task coordinates, 4 for the planar dual arm):

@@ -102,7 +102,11 @@ impl<'a> ComposedLift<'a> {
         let n = self.kin.dof();
         ComposedWorkspace {
             rotation: self.rotation.workspace(),
-            scaling: self.rotation.workspace(),
+            // One per field, so each warm-starts from its own last step size.
+            scaling: self
+                .scaling
+                .as_ref()
+                .map_or_else(|| self.rotation.workspace(), LiftedAction::workspace),
             a: vec![0.0; n],
             b: vec![0.0; n],
             va: vec![0.0; n],
