@@ -466,6 +466,24 @@ pub fn demo_reference(test: &JointTrajectory, refs: &[&JointTrajectory]) -> Opti
     Some((nearest, path_rmse(&test.x, &mean, m)))
 }
 
+/// Mean and standard deviation of `values` with `ddof` delta degrees of freedom (numpy's
+/// `std(ddof=…)`: divisor `len − ddof`); the std is NaN when `len ≤ ddof` and `ddof > 0`,
+/// and both are 0 for an empty slice with `ddof = 0`.
+///
+/// ```
+/// assert_eq!(crossym::eval::mean_std(&[1.0, 3.0], 0), (2.0, 1.0));
+/// assert_eq!(crossym::eval::mean_std(&[1.0, 3.0], 1), (2.0, 2f64.sqrt()));
+/// ```
+pub fn mean_std(values: &[f64], ddof: usize) -> (f64, f64) {
+    let n = values.len();
+    let mean = values.iter().sum::<f64>() / n.max(1) as f64;
+    if ddof > 0 && n <= ddof {
+        return (mean, f64::NAN);
+    }
+    let ss = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>();
+    (mean, (ss / (n - ddof).max(1) as f64).sqrt())
+}
+
 impl Cell {
     /// The cell in the per-coordinate convention: every RMSE divided by `√m` (`m` task
     /// coordinates), which is exact because `m` is the same for every trajectory.
@@ -481,15 +499,11 @@ impl Cell {
     /// Mean ± std (population) of the scores' RMSE, with the divergence count.
     pub fn from_scores(scores: &[RolloutScore]) -> Self {
         let count = scores.len();
-        let mean = scores.iter().map(|s| s.rmse).sum::<f64>() / count.max(1) as f64;
-        let var = scores
-            .iter()
-            .map(|s| (s.rmse - mean) * (s.rmse - mean))
-            .sum::<f64>()
-            / count.max(1) as f64;
+        let rmse: Vec<f64> = scores.iter().map(|s| s.rmse).collect();
+        let (mean, std) = mean_std(&rmse, 0);
         Cell {
             mean,
-            std: var.sqrt(),
+            std,
             count,
             diverged: scores.iter().filter(|s| s.diverged).count(),
         }

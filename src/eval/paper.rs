@@ -202,15 +202,10 @@ pub fn trajectory_mse(
 /// ```
 pub fn pooled_cell(errors: &[TrajectoryError]) -> PaperCell {
     let count = errors.len();
-    let mean = errors.iter().map(|e| e.error).sum::<f64>() / count.max(1) as f64;
-    let var = errors
-        .iter()
-        .map(|e| (e.error - mean) * (e.error - mean))
-        .sum::<f64>()
-        / count.max(1) as f64;
+    let (mean, std) = super::mean_std(&values(errors), 0);
     PaperCell {
         value: mean.sqrt(),
-        std: var.sqrt(),
+        std,
         spread: Spread::MsePopulation,
         count,
         diverged: errors.iter().filter(|e| e.diverged).count(),
@@ -228,17 +223,7 @@ pub fn pooled_cell(errors: &[TrajectoryError]) -> PaperCell {
 /// ```
 pub fn resampled_cell(errors: &[TrajectoryError]) -> PaperCell {
     let count = errors.len();
-    let mean = errors.iter().map(|e| e.error).sum::<f64>() / count.max(1) as f64;
-    let std = if count < 2 {
-        f64::NAN
-    } else {
-        (errors
-            .iter()
-            .map(|e| (e.error - mean) * (e.error - mean))
-            .sum::<f64>()
-            / (count - 1) as f64)
-            .sqrt()
-    };
+    let (mean, std) = super::mean_std(&values(errors), 1);
     PaperCell {
         value: mean,
         std,
@@ -246,6 +231,11 @@ pub fn resampled_cell(errors: &[TrajectoryError]) -> PaperCell {
         count,
         diverged: errors.iter().filter(|e| e.diverged).count(),
     }
+}
+
+/// The per-trajectory errors as plain values.
+fn values(errors: &[TrajectoryError]) -> Vec<f64> {
+    errors.iter().map(|e| e.error).collect()
 }
 
 /// A row-major path of `len` samples × `c` columns resampled to `points` samples over
