@@ -4,7 +4,10 @@
 //!   forward, safety QP, command) along a path of joint states, for the planar dual arm with
 //!   the shipped policy (canonical task features `x̃ = g(s)⁻¹ f(q)`) and RB-Y1's 14 arm joints
 //!   with a synthetic policy of the same shape; `*-no-xt` ticks run a synthetic policy of the
-//!   same widths without task features, the reference for what `x̃` costs.
+//!   same widths without task features, the reference for what `x̃` costs; `*-eq-*` ticks
+//!   run a canonicalised policy `dΦ_g π₀(Φ_g⁻¹ q)` (issue 18) under the off-grid condition
+//!   θ = 17°, λ = 0.73, σ = −1, flows by adaptive Dormand–Prince or fixed-step RK4
+//!   (`CROSSYM_TICK_ONLY=eq` runs only those).
 //!   A second pass times 20 000 single ticks and prints median and p99.
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
 //!   second DDS participant publishing JointState and timing the arrival of the command the
@@ -23,21 +26,43 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use crossym::config::Config;
 use crossym::policy::{Policy, TaskFeatures};
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
-use crossym::ros::{msg, NodeConfig, NodeCore, Trigger};
+use crossym::ros::{msg, NodeConfig, NodeCore, StatusCode, Trigger};
 use crossym::safety::SafetySettings;
+use crossym::symmetry::compose::Condition;
+use crossym::symmetry::transfer::composed::LiftIntegrator;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The node core and a path of joint states for one robot; `features`: the policy reads
-/// the canonical task point `x̃`.
-fn setup(robot: &str, features: bool) -> Option<(NodeCore, Vec<Vec<f64>>)> {
-    let (cfg_name, synthetic) = match robot {
-        "planar" => ("letters.toml", !features),
+/// The policy of a tick variant.
+#[derive(Clone, Copy, PartialEq)]
+enum Kind {
+    /// Canonical task features `x̃` (the shipped planar policy; synthetic on RB-Y1).
+    Features,
+    /// A synthetic policy of the same widths without task features.
+    NoFeatures,
+    /// A canonicalised policy `dΦ_g π₀(Φ_g⁻¹ q)` under an off-grid condition, its flows
+    /// integrated by the given integrator.
+    Canonicalised(LiftIntegrator),
+}
+
+/// Off the training grid: θ = 17°, λ = 0.73, σ = −1.
+const OFF_GRID: Condition = Condition {
+    theta: 0.296_705_972_839_036,
+    scale: 0.73,
+    reflection: -1,
+};
+
+/// The node core and a path of joint states for one robot and policy kind.
+fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
+    let features = kind != Kind::NoFeatures;
+    let (cfg_name, synthetic) = match (robot, kind) {
+        ("planar", _) => ("letters.toml", !features),
+        (_, Kind::Canonicalised(_)) => ("rby1-letters.toml", true),
         _ => ("rby1.toml", true),
     };
-    if synthetic && !root().join("../shared/robots/rby1a/model.urdf").exists() {
+    if robot != "planar" && !root().join("../shared/robots/rby1a/model.urdf").exists() {
         eprintln!("SKIP {robot}: ../shared/robots/rby1a/model.urdf absent");
         return None;
     }
@@ -45,7 +70,7 @@ fn setup(robot: &str, features: bool) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     let robot = cfg.load_robot().unwrap();
     let kin = robot.kinematics;
     let n = kin.dof();
-    let policy = if synthetic {
+    let mut policy = if synthetic {
         let task = features.then(|| {
             let (built, _) = crossym::symmetry::check::build(&kin, &cfg.symmetries).unwrap();
             TaskFeatures::for_robot(&kin, &built, &cfg.composition.order).unwrap()
@@ -54,20 +79,37 @@ fn setup(robot: &str, features: bool) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     } else {
         Policy::load(root().join("data/policies/pi_mrt_planar.safetensors")).unwrap()
     };
-    let q0 = cfg
-        .check
-        .reference_q
-        .clone()
-        .unwrap_or_else(|| vec![0.0; n]);
-    // A smooth closed path around the reference posture (1000 states, 10 ms apart).
+    let mut node_cfg = cfg.node.clone().unwrap_or_default();
+    if let Kind::Canonicalised(integrator) = kind {
+        policy.meta.canonicalised =
+            Some(crossym::pipeline::composition(&cfg, &kin, integrator).unwrap());
+        node_cfg.default_condition = OFF_GRID;
+    }
+    // Canonicalised: around the first demonstration's start (the condition is feasible
+    // there); otherwise around the reference posture.
+    let q0 = if matches!(kind, Kind::Canonicalised(_)) {
+        cfg.load_demonstrations(&kin).unwrap().demos[0]
+            .q(0)
+            .to_vec()
+    } else {
+        cfg.check
+            .reference_q
+            .clone()
+            .unwrap_or_else(|| vec![0.0; n])
+    };
+    // A smooth closed path around that posture (1000 states, 10 ms apart).
+    let amplitude = if matches!(kind, Kind::Canonicalised(_)) {
+        0.05
+    } else {
+        0.1
+    };
     let path = (0..1000)
         .map(|k| {
             (0..n)
-                .map(|j| q0[j] + 0.1 * (0.0063 * k as f64 + j as f64).sin())
+                .map(|j| q0[j] + amplitude * (0.0063 * k as f64 + j as f64).sin())
                 .collect()
         })
         .collect();
-    let node_cfg = cfg.node.clone().unwrap_or_default();
     let safety = SafetySettings {
         default_acceleration: 10.0,
         ..node_cfg.safety
@@ -80,13 +122,26 @@ fn bench_tick(c: &mut Criterion) {
     let mut g = c.benchmark_group("tick");
     g.measurement_time(Duration::from_secs(4))
         .warm_up_time(Duration::from_secs(1));
-    for (robot, features) in [
-        ("planar", true),
-        ("planar", false),
-        ("rby1", true),
-        ("rby1", false),
+    let adaptive = crossym::pipeline::canonical_integrator();
+    let rk4 = LiftIntegrator::Rk4 { max_step: 0.2 };
+    let only = std::env::var("CROSSYM_TICK_ONLY").ok();
+    for (robot, kind, suffix) in [
+        ("planar", Kind::Features, ""),
+        ("planar", Kind::NoFeatures, "-no-xt"),
+        ("planar", Kind::Canonicalised(adaptive), "-eq-adaptive"),
+        ("planar", Kind::Canonicalised(rk4), "-eq-rk4"),
+        ("rby1", Kind::Features, ""),
+        ("rby1", Kind::NoFeatures, "-no-xt"),
+        ("rby1", Kind::Canonicalised(adaptive), "-eq-adaptive"),
+        ("rby1", Kind::Canonicalised(rk4), "-eq-rk4"),
     ] {
-        let Some((mut core, path)) = setup(robot, features) else {
+        if only
+            .as_deref()
+            .is_some_and(|o| !format!("{robot}{suffix}").contains(o))
+        {
+            continue;
+        }
+        let Some((mut core, path)) = setup(robot, kind) else {
             continue;
         };
         let mut gate = core.input_gate();
@@ -97,20 +152,18 @@ fn bench_tick(c: &mut Criterion) {
             ..Default::default()
         };
         let mut k = 0usize;
+        let mut infeasible = 0usize;
         let mut step = |core: &mut NodeCore| {
             m.position.copy_from_slice(&path[k % path.len()]);
             let now = k as f64 * 0.01;
             gate.on_joint_state(&m, now).unwrap();
             core.load_inputs(gate.inputs());
             let r = core.tick(now, &mut cmd);
+            infeasible += usize::from(r.code == StatusCode::ConditionInfeasible);
             k += 1;
             black_box(r);
         };
-        let label = format!(
-            "{robot}_{}dof{}",
-            core.joint_names().len(),
-            if features { "" } else { "-no-xt" }
-        );
+        let label = format!("{robot}_{}dof{suffix}", core.joint_names().len());
         g.bench_function(&label, |b| b.iter(|| step(&mut core)));
         // Percentiles of single ticks.
         let mut t: Vec<f64> = (0..20_000)
@@ -122,11 +175,15 @@ fn bench_tick(c: &mut Criterion) {
             .collect();
         t.sort_by(f64::total_cmp);
         println!(
-            "tick/{label}: median {:.2} us, p99 {:.2} us, max {:.2} us over {} ticks",
+            "tick/{label}: median {:.2} us, p99 {:.2} us, max {:.2} us over {} ticks ({infeasible} infeasible)",
             t[t.len() / 2],
             t[t.len() * 99 / 100],
             t[t.len() - 1],
             t.len()
+        );
+        assert_eq!(
+            infeasible, 0,
+            "{label}: the off-grid condition must stay feasible on the path"
         );
     }
     g.finish();
@@ -134,7 +191,10 @@ fn bench_tick(c: &mut Criterion) {
 
 /// joint_states → command latency through the real node over loopback DDS.
 fn bench_latency(_c: &mut Criterion) {
-    let Some((core, path)) = setup("planar", true) else {
+    if std::env::var("CROSSYM_TICK_ONLY").is_ok() {
+        return;
+    }
+    let Some((core, path)) = setup("planar", Kind::Features) else {
         return;
     };
     let _ = core; // the node builds its own core below with trigger = joint_states

@@ -56,9 +56,14 @@ enum Command {
         /// Config file (TOML) with [demonstrations], [augmentation], [train].
         #[arg(long, short)]
         config: PathBuf,
-        /// Sub-group used for augmentation: identity, R, RT or MRT.
-        #[arg(long, default_value = "MRT")]
-        group: String,
+        /// Sub-group used for augmentation: identity, R, RT or MRT (default MRT).
+        #[arg(long)]
+        group: Option<String>,
+        /// Train `π₀` on the original demonstrations only and save it canonicalised by
+        /// the config's composition: exactly equivariant, any feasible condition (the
+        /// sidecar records the composition; every command loads it like any policy).
+        #[arg(long, conflicts_with = "group")]
+        equivariant: bool,
         /// Output weights (`.safetensors`; a `.json` sidecar and the loss log `.loss.csv`
         /// are written beside it).
         #[arg(long)]
@@ -292,9 +297,16 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Train {
             config,
             group,
+            equivariant,
             out,
             iterations,
-        } => train(&config, &group, &out, iterations),
+        } => train(
+            &config,
+            group.as_deref().unwrap_or("MRT"),
+            equivariant,
+            &out,
+            iterations,
+        ),
         Command::Eval {
             config,
             policies,
@@ -678,13 +690,18 @@ fn augment(path: &PathBuf, plot: Option<&std::path::Path>) -> anyhow::Result<Exi
 fn train(
     path: &PathBuf,
     group: &str,
+    equivariant: bool,
     out: &PathBuf,
     iterations: Option<usize>,
 ) -> anyhow::Result<ExitCode> {
     use crossym::data::augmentation::SubGroup;
     let cfg = Config::from_file(path)?;
-    let g = SubGroup::parse(group)
-        .with_context(|| format!("--group `{group}`: expected identity, R, RT or MRT"))?;
+    let g = if equivariant {
+        SubGroup::Identity
+    } else {
+        SubGroup::parse(group)
+            .with_context(|| format!("--group `{group}`: expected identity, R, RT or MRT"))?
+    };
     let mut tc = cfg
         .train
         .clone()
@@ -703,7 +720,12 @@ fn train(
         },
     )?;
     println!(
-        "training on {} trajectories of {} ({} iterations)",
+        "training {}on {} trajectories of {} ({} iterations)",
+        if equivariant {
+            "π₀ (canonicalised by the composition) "
+        } else {
+            ""
+        },
         p.train.subset(g).len(),
         g.label(),
         tc.iterations
@@ -720,7 +742,7 @@ fn train(
     let mut log = String::from("iteration,loss,learning_rate\n");
     let tenth = tc.iterations.div_ceil(10).max(1);
     let mut next_line = tenth;
-    let trained = crossym::pipeline::train(&cfg, kin, &p, g, &tc, |it, loss| {
+    let on_iteration = |it: usize, loss: f64| {
         let lr = tc.lr_schedule.at(tc.learning_rate, it - 1, tc.iterations);
         log.push_str(&format!("{it},{loss:e},{lr:e}\n"));
         bar.set_position(it as u64);
@@ -734,7 +756,12 @@ fn train(
             });
             next_line = it + tenth;
         }
-    })?;
+    };
+    let trained = if equivariant {
+        crossym::pipeline::train_equivariant(&cfg, kin, &p, &tc, on_iteration)?
+    } else {
+        crossym::pipeline::train(&cfg, kin, &p, g, &tc, on_iteration)?
+    };
     let (policy, report) = (trained.policy, trained.report);
     bar.finish_and_clear();
     crossym::pipeline::create_parent(out)?;
@@ -792,24 +819,15 @@ fn eval(
     {
         anyhow::bail!("--canonicalise {l}: no policy labelled `{l}`");
     }
-    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
     let mut loaded = Vec::new();
     for (label, file) in specs {
-        let policy = crossym::pipeline::load_policy_for(kin, &file)?;
-        let policy = if canonicalise.contains(&label) {
-            let lift = crossym::symmetry::transfer::composed::ComposedLift::new(
-                kin,
-                &built,
-                &cfg.composition.order,
-                crossym::data::augmentation::letter_flow(),
-            )
-            .map_err(anyhow::Error::msg)
-            .with_context(|| format!("--canonicalise {label}"))?;
-            let eq = crossym::policy::EquivariantPolicy::new(policy, lift)
-                .map_err(anyhow::Error::msg)?;
-            AnyPolicy::Canonicalised(Box::new(eq))
-        } else {
-            AnyPolicy::Plain(Box::new(policy))
+        let policy = crossym::pipeline::load_any_policy(&cfg, kin, &file)?;
+        let policy = match policy {
+            AnyPolicy::Plain(p) if canonicalise.contains(&label) => {
+                crossym::pipeline::canonicalise(&cfg, kin, *p)
+                    .with_context(|| format!("--canonicalise {label}"))?
+            }
+            other => other,
         };
         loaded.push((label, policy));
     }

@@ -616,3 +616,125 @@ fn node_core_tick_is_allocation_free() {
     assert!(fast > 0, "no tick took an allocation-free path");
     eprintln!("node tick: {fast} ticks with 0 allocations, {solver_allocs} Clarabel timer allocations on the solver path");
 }
+
+/// A canonicalised policy `π(q, s) = dΦ_g π₀(Φ_g⁻¹ q)` (issue 18) allocates nothing per
+/// call — inverse flows, push-forward, `π₀` — on the planar arms and on RB-Y1, whether the
+/// flows succeed or stop at a singularity; and neither does the node's tick with it, nor the
+/// gate's feasibility check of an incoming condition.
+#[test]
+fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
+    use crossym::config::Config;
+    use crossym::ros::{msg, NodeConfig, NodeCore};
+    use crossym::safety::{SafetySettings, SafetyStatus};
+    use crossym::symmetry::compose::Condition;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut configs = vec![("planar", "config/letters.toml")];
+    if root.join("../shared/robots/rby1a/model.urdf").exists() {
+        configs.push(("rby1", "config/rby1-letters.toml"));
+    } else {
+        eprintln!("SKIP rby1 canonicalised: ../shared/robots/rby1a/model.urdf absent");
+    }
+    for (robot, file) in configs {
+        let cfg = Config::from_file(root.join(file)).unwrap();
+        let kin = cfg.load_robot().unwrap().kinematics;
+        let n = kin.dof();
+        let policy = crossym::pipeline::canonicalise(&cfg, &kin, tick_policy(&cfg, &kin)).unwrap();
+        assert!(policy.composition().is_some());
+        let mut ws = policy.workspace();
+        let mut v = vec![0.0; n];
+        let q_ref = cfg
+            .check
+            .reference_q
+            .clone()
+            .unwrap_or_else(|| vec![0.0; n]);
+        let mut rng = StdRng::seed_from_u64(31);
+        let (mut ok, mut failed) = (0usize, 0usize);
+        for k in 0..60 {
+            // Near the reference posture (mostly feasible) and anywhere (some singular).
+            let q: Vec<f64> = if k % 3 == 2 {
+                random_q(&mut rng, kin.limits())
+            } else {
+                q_ref
+                    .iter()
+                    .map(|x| x + rng.random_range(-0.2..0.2))
+                    .collect()
+            };
+            let s = Condition {
+                theta: rng.random_range(-3.0..3.0),
+                scale: rng.random_range(0.3..1.4),
+                reflection: if k % 2 == 0 { 1 } else { -1 },
+            };
+            let (r, count, first) = count_allocs(|| policy.velocity(&q, &s, &mut v, &mut ws));
+            let text = first.map(|b| b.to_string()).unwrap_or_default();
+            assert_eq!(
+                count, 0,
+                "[{robot}] canonicalised velocity ({r:?}) allocated:\n{text}"
+            );
+            if r.is_ok() {
+                assert!(all_finite(&v));
+                ok += 1;
+            } else {
+                failed += 1;
+            }
+        }
+        eprintln!("[{robot}] canonicalised velocity: {ok} evaluated, {failed} stopped at a flow failure, 0 allocations");
+        assert!(ok > 0, "[{robot}] no condition was feasible");
+
+        // The node's tick and the gate's feasibility check.
+        let limits = kin.limits().to_vec();
+        let names = kin.joint_names().to_vec();
+        let mut core = NodeCore::new(
+            kin,
+            policy,
+            SafetySettings::default(),
+            NodeConfig::default(),
+        )
+        .unwrap();
+        let mut gate = core.input_gate();
+        let mut cmd = core.command();
+        let mut m = msg::JointState {
+            name: names,
+            position: q_ref.clone(),
+            ..Default::default()
+        };
+        let mut fast = 0usize;
+        for k in 0..120 {
+            for (j, (p, b)) in m.position.iter_mut().zip(&q_ref).enumerate() {
+                *p = (b + 0.1 * (0.02 * k as f64 + j as f64).sin())
+                    .clamp(limits[j].lower, limits[j].upper);
+            }
+            let now = k as f64 * 0.01;
+            assert!(gate.on_joint_state(&m, now).is_ok());
+            if k % 20 == 5 {
+                let c = msg::SymmetryCondition {
+                    theta: rng.random_range(-3.0..3.0),
+                    scale: rng.random_range(0.3..1.4),
+                    reflection: if k % 40 == 5 { 1 } else { -1 },
+                    ..Default::default()
+                };
+                let (r, count, first) = count_allocs(|| gate.on_condition(&c));
+                let text = first.map(|b| b.to_string()).unwrap_or_default();
+                assert_eq!(
+                    count, 0,
+                    "[{robot}] feasibility check ({r:?}) allocated:\n{text}"
+                );
+            }
+            let (rep, count, first) = count_allocs(|| {
+                core.load_inputs(gate.inputs());
+                core.tick(now, &mut cmd)
+            });
+            assert!(cmd.velocities.iter().all(|v| v.is_finite()));
+            if rep.safety == Some(SafetyStatus::Filtered) && count > 0 {
+                assert_only_clarabel_timers("canonicalised node tick", first);
+            } else {
+                let text = first.map(|b| b.to_string()).unwrap_or_default();
+                assert_eq!(
+                    count, 0,
+                    "[{robot}] canonicalised node tick allocated:\n{text}"
+                );
+                fast += 1;
+            }
+        }
+        assert!(fast > 0, "[{robot}] no tick took an allocation-free path");
+    }
+}

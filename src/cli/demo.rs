@@ -10,7 +10,6 @@ use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::plot::{condition_label, write_paths_grid, PathFigure, PathPanel, XY_VIEW};
 use crossym::eval::{score, EvalConfig};
-use crossym::policy::Policy;
 use crossym::ros::dds::{DdsSettings, DiscoveryRange};
 use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
 use crossym::sim::MockHwSummary;
@@ -169,9 +168,10 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
         .policy
         .clone()
         .context("[node] policy is not set")?;
-    let policy = Policy::load(&policy_path)?;
-    // The node rejects conditions outside the policy's trained box: refuse them here with
-    // the reason (given ones) or leave them out (defaults), instead of a node that ignores them.
+    let policy = crossym::pipeline::load_any_policy(&cfg, kin, &policy_path)?;
+    // The node rejects conditions outside a plain policy's trained box: refuse them here
+    // with the reason (given ones) or leave them out (defaults), instead of a node that
+    // ignores them. A canonicalised policy has no box (the node checks feasibility).
     let domain = node_cfg
         .condition_domain(&policy)
         .map_err(anyhow::Error::msg)

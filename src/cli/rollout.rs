@@ -65,7 +65,7 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
                 )
             })?,
     };
-    let policy = crossym::pipeline::load_policy_for(kin, &policy_path)?;
+    let policy = crossym::pipeline::load_any_policy(&cfg, kin, &policy_path)?;
     // The start state and, from a demonstration, the nominal trajectory.
     let (q0, nominal, label) = match &a.q {
         Some(q) => {

@@ -69,7 +69,7 @@ impl ConditionedPolicy for Policy {
     }
 }
 
-impl ConditionedPolicy for crate::policy::EquivariantPolicy<'_> {
+impl ConditionedPolicy for crate::policy::EquivariantPolicy {
     type Workspace = crate::policy::EquivariantWorkspace;
     fn rollout_workspace(&self) -> Self::Workspace {
         self.workspace()
@@ -85,29 +85,12 @@ impl ConditionedPolicy for crate::policy::EquivariantPolicy<'_> {
     }
 }
 
-/// Either kind of policy, for a list evaluated side by side (`crossym eval`).
-pub enum AnyPolicy<'a> {
-    /// A plain `π(q, s)`.
-    Plain(Box<Policy>),
-    /// A base policy canonicalised by the composed lifted action.
-    Canonicalised(Box<crate::policy::EquivariantPolicy<'a>>),
-}
+pub use crate::policy::{AnyPolicy, AnyWorkspace};
 
-/// Scratch of an [`AnyPolicy`].
-pub enum AnyWorkspace {
-    /// Of a plain policy.
-    Plain(Box<crate::policy::PolicyWorkspace>),
-    /// Of a canonicalised one.
-    Canonicalised(Box<crate::policy::EquivariantWorkspace>),
-}
-
-impl ConditionedPolicy for AnyPolicy<'_> {
+impl ConditionedPolicy for AnyPolicy {
     type Workspace = AnyWorkspace;
     fn rollout_workspace(&self) -> AnyWorkspace {
-        match self {
-            AnyPolicy::Plain(p) => AnyWorkspace::Plain(Box::new(p.workspace())),
-            AnyPolicy::Canonicalised(p) => AnyWorkspace::Canonicalised(Box::new(p.workspace())),
-        }
+        self.workspace()
     }
     fn velocity_into(
         &self,
@@ -116,13 +99,7 @@ impl ConditionedPolicy for AnyPolicy<'_> {
         out: &mut [f64],
         ws: &mut AnyWorkspace,
     ) -> bool {
-        match (self, ws) {
-            (AnyPolicy::Plain(p), AnyWorkspace::Plain(w)) => p.velocity_into(q, s, out, w),
-            (AnyPolicy::Canonicalised(p), AnyWorkspace::Canonicalised(w)) => {
-                p.velocity_into(q, s, out, w)
-            }
-            _ => false,
-        }
+        self.velocity(q, s, out, ws).is_ok()
     }
 }
 

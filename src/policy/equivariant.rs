@@ -15,9 +15,10 @@ use crate::symmetry::compose::Condition;
 use crate::symmetry::transfer::composed::{ComposedError, ComposedLift, ComposedWorkspace};
 
 /// A base policy `π₀` canonicalised by the composed lifted action.
-pub struct EquivariantPolicy<'a> {
+#[derive(Debug, Clone)]
+pub struct EquivariantPolicy {
     base: Policy,
-    lift: ComposedLift<'a>,
+    lift: ComposedLift,
 }
 
 /// Scratch for [`EquivariantPolicy::velocity`].
@@ -30,10 +31,10 @@ pub struct EquivariantWorkspace {
     q1: Vec<f64>,
 }
 
-impl<'a> EquivariantPolicy<'a> {
+impl EquivariantPolicy {
     /// `π₀` (evaluated at the identity condition) and the composed action it is
     /// canonicalised by; the policy must drive the lift's robot.
-    pub fn new(base: Policy, lift: ComposedLift<'a>) -> Result<Self, String> {
+    pub fn new(base: Policy, lift: ComposedLift) -> Result<Self, String> {
         if base.dim() != lift.kinematics().dof() {
             return Err(format!(
                 "the policy drives {} joints, the robot has {}",
@@ -50,7 +51,7 @@ impl<'a> EquivariantPolicy<'a> {
     }
 
     /// The composed action.
-    pub fn lift(&self) -> &ComposedLift<'a> {
+    pub fn lift(&self) -> &ComposedLift {
         &self.lift
     }
 

@@ -9,7 +9,8 @@
 //! version, the normaliser, the layer sizes and activation, robot and joint names, the
 //! caller's symmetry description, the training configuration and, for policies with
 //! canonical task-space features, their FK chains, group map and normalisation
-//! ([`super::canonical::TaskFeatureSpec`]). [`Policy::load`] checks
+//! ([`super::canonical::TaskFeatureSpec`]), and for a canonicalised policy the composition
+//! it is evaluated through ([`ComposedSpec`], `canonicalised`). [`Policy::load`] checks
 //! the format version, the normaliser, that the layer sizes agree with `n`, that every
 //! tensor exists with the right shape, and that every weight is finite, and names the
 //! file and the offending field or tensor when something is wrong.
@@ -26,6 +27,7 @@ use super::error::PolicyError;
 use super::features::Normalizer;
 use super::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};
 use super::train::TrainConfig;
+use crate::symmetry::transfer::composed::ComposedSpec;
 
 /// Format tag written in the sidecar's `format` field.
 pub const FORMAT: &str = "crossym-policy";
@@ -56,6 +58,9 @@ struct Sidecar {
     /// Canonical task-space features (absent in policies without them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     task_features: Option<TaskFeatureSpec>,
+    /// The composition a canonicalised policy is evaluated through (absent: plain).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    canonicalised: Option<ComposedSpec>,
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> PolicyError + '_ {
@@ -124,6 +129,7 @@ impl Policy {
             symmetry: self.meta.symmetry.clone(),
             train_config: self.meta.train_config.clone(),
             task_features: self.task_features().map(|t| t.spec().clone()),
+            canonicalised: self.meta.canonicalised.clone(),
         };
         let json = serde_json::to_string_pretty(&sidecar).map_err(|e| PolicyError::Sidecar {
             path: side.clone(),
@@ -256,6 +262,7 @@ impl Policy {
             symmetry: sc.symmetry,
             train_config: sc.train_config,
             crate_version: sc.crate_version,
+            canonicalised: sc.canonicalised,
         };
         let policy =
             Policy::with_task_features(sc.normalizer, mlp, task, meta).map_err(|e| match e {

@@ -378,6 +378,10 @@ pub struct PolicyMeta {
     pub train_config: Option<TrainConfig>,
     /// Version of `crossym` that created or last saved the policy.
     pub crate_version: String,
+    /// For a canonicalised policy `π(q, s) = dΦ_g π₀(Φ_g⁻¹ q)`: the composition `Φ_g` is
+    /// built from (this network is `π₀`); `None` for a plain `π(q, s)`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub canonicalised: Option<crate::symmetry::transfer::composed::ComposedSpec>,
 }
 
 impl PolicyMeta {
@@ -393,6 +397,7 @@ impl PolicyMeta {
             symmetry,
             train_config: None,
             crate_version: env!("CARGO_PKG_VERSION").to_string(),
+            canonicalised: None,
         }
     }
 }

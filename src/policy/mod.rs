@@ -13,6 +13,7 @@
 //! - [`task_fk`]: batched differentiable FK in candle ([`CandleFk`]), for those features.
 //! - [`equivariant`]: exactly equivariant policies by canonicalisation through the lifted
 //!   flows ([`EquivariantPolicy`]).
+//! - [`any`]: a policy as loaded from a file, plain or canonicalised ([`AnyPolicy`]).
 //! - [`domain`]: the box of conditions a policy was trained on ([`ConditionDomain`]), which
 //!   the node enforces on incoming conditions.
 //! - [`mlp`]: architecture ([`MlpSpec`]), allocation-free `f64` inference
@@ -23,6 +24,7 @@
 //! Only training uses candle; [`Policy::velocity`] is plain `f64` code that allocates
 //! nothing, with a caller-owned [`PolicyWorkspace`].
 
+pub mod any;
 pub mod canonical;
 pub mod domain;
 pub mod equivariant;
@@ -33,6 +35,7 @@ pub mod mlp;
 pub mod task_fk;
 pub mod train;
 
+pub use any::{AnyPolicy, AnyWorkspace};
 pub use canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatureWorkspace, TaskFeatures};
 pub use domain::{ConditionDomain, DomainViolation};
 pub use equivariant::{EquivariantPolicy, EquivariantWorkspace};

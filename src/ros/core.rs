@@ -22,10 +22,14 @@ use serde::{Deserialize, Serialize};
 
 use super::msg;
 use crate::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
-use crate::policy::{ConditionDomain, DomainViolation, Policy, PolicyWorkspace};
+use crate::policy::{
+    AnyPolicy, AnyWorkspace, ConditionDomain, DomainViolation, EquivariantPolicy,
+    EquivariantWorkspace,
+};
 use crate::safety::history::{CommandHistory, CommandWindow};
 use crate::safety::{Anchor, Barrier, SafetyError, SafetyFilter, SafetySettings, SafetyStatus};
 use crate::symmetry::compose::Condition;
+use crate::symmetry::transfer::composed::ComposedError;
 
 /// What the node publishes on its command topic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -142,11 +146,12 @@ impl NodeConfig {
     /// The conditions the node accepts for `policy`: its trained [`ConditionDomain`], or
     /// `None` (every valid condition) with `accept_untrained_conditions` or when the policy
     /// records no training; an error names a malformed training record.
-    pub fn condition_domain(&self, policy: &Policy) -> Result<Option<ConditionDomain>, String> {
-        if self.accept_untrained_conditions {
+    /// A canonicalised policy has no box: it is checked for feasibility instead.
+    pub fn condition_domain(&self, policy: &AnyPolicy) -> Result<Option<ConditionDomain>, String> {
+        if self.accept_untrained_conditions || policy.composition().is_some() {
             return Ok(None);
         }
-        ConditionDomain::from_meta(&policy.meta)
+        ConditionDomain::from_meta(&policy.network().meta)
     }
 
     /// Checks periods, timeout, names and the default condition; says what is wrong.
@@ -243,6 +248,13 @@ pub enum NodeSetupError {
         #[from]
         source: crate::policy::PolicyError,
     },
+    /// The policy does not fit the config's robot (joints, FK of its task features) or,
+    /// canonicalised, its composition.
+    #[error(transparent)]
+    PolicyFit {
+        /// What does not fit (names the file).
+        source: crate::pipeline::PipelineError,
+    },
     /// The node settings or the policy do not fit the robot.
     #[error(transparent)]
     Node {
@@ -252,8 +264,88 @@ pub enum NodeSetupError {
     },
 }
 
+/// Why a condition is infeasible for a canonicalised policy from the current joint state
+/// (fixed size, no allocation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum Infeasibility {
+    /// A lifted flow of `Φ_g⁻¹` or `dΦ_g` fails from the current state (a singularity at
+    /// some flow time, an integration failure).
+    Flow(ComposedError),
+    /// The canonical configuration `q₀ = Φ_g⁻¹(q)` puts joint `joint` outside its limits.
+    JointLimit {
+        /// Index in the controlled joint order.
+        joint: usize,
+        /// Its canonical position (rad or m).
+        position: f64,
+    },
+    /// The policy's output at the current state is not finite.
+    NonFinite,
+}
+
+impl std::fmt::Display for Infeasibility {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Flow(e) => write!(f, "{e}"),
+            Self::JointLimit { position, .. } => write!(
+                f,
+                "the canonical configuration Φ_g⁻¹(q) puts the joint at {position:.4}, outside its limits"
+            ),
+            Self::NonFinite => f.write_str("the canonicalised policy's output is not finite"),
+        }
+    }
+}
+
+/// The feasibility check of a condition for a canonicalised policy, from the current joint
+/// state `q`: `Φ_g⁻¹(q)` and `dΦ_g π₀` must integrate (no singularity on the way), the
+/// canonical configuration `q₀ = Φ_g⁻¹(q)` must lie inside the joint limits (slack 1e-9),
+/// and the output must be finite. Replaces the trained-box check of plain policies: any
+/// condition passing it is followed exactly (conjugate closed loop). Allocation-free after
+/// construction.
+#[derive(Debug, Clone)]
+pub struct ConditionFeasibility {
+    policy: EquivariantPolicy,
+    ws: EquivariantWorkspace,
+    limits: Vec<JointLimits>,
+    v: Vec<f64>,
+}
+
+impl ConditionFeasibility {
+    /// The check for `policy` on a robot with joint `limits`.
+    pub fn new(policy: EquivariantPolicy, limits: Vec<JointLimits>) -> Self {
+        let ws = policy.workspace();
+        let v = vec![0.0; limits.len()];
+        Self {
+            policy,
+            ws,
+            limits,
+            v,
+        }
+    }
+
+    /// Whether `s` is feasible from `q`; allocation-free.
+    pub fn check(&mut self, q: &[f64], s: &Condition) -> Result<(), Infeasibility> {
+        self.policy
+            .velocity(q, s, &mut self.v, &mut self.ws)
+            .map_err(Infeasibility::Flow)?;
+        let (q0, _) = self.policy.last_canonical(&self.ws);
+        for (j, (l, &p)) in self.limits.iter().zip(q0).enumerate() {
+            if p < l.lower - 1e-9 || p > l.upper + 1e-9 {
+                return Err(Infeasibility::JointLimit {
+                    joint: j,
+                    position: p,
+                });
+            }
+        }
+        if self.v.iter().any(|v| !v.is_finite()) {
+            return Err(Infeasibility::NonFinite);
+        }
+        Ok(())
+    }
+}
+
 /// Why an input message was rejected (fixed size, no allocation).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub enum Rejection {
     /// JointState `name` and `position` lengths differ.
@@ -294,6 +386,12 @@ pub enum Rejection {
         /// The part that lies outside.
         part: DomainViolation,
     },
+    /// The condition is valid, but a canonicalised policy cannot follow it from the current
+    /// joint state (see [`ConditionFeasibility`]).
+    InfeasibleCondition {
+        /// Why.
+        reason: Infeasibility,
+    },
 }
 
 impl Rejection {
@@ -308,6 +406,9 @@ impl Rejection {
             Rejection::InvalidTheta => "symmetry_condition: theta is not finite",
             Rejection::InvalidScale => "symmetry_condition: scale must be finite and > 0",
             Rejection::InvalidReflection { .. } => "symmetry_condition: reflection must be 1 or -1",
+            Rejection::InfeasibleCondition { .. } => {
+                "symmetry_condition: infeasible from the current joint state"
+            }
             Rejection::UntrainedCondition { part } => match part {
                 DomainViolation::Theta => {
                     "symmetry_condition: theta outside the policy's trained range"
@@ -335,6 +436,14 @@ impl Rejection {
                 format!("{} (`{}`)", self.describe(), name(joint))
             }
             Rejection::InvalidReflection { value } => format!("{} (got {value})", self.describe()),
+            Rejection::InfeasibleCondition {
+                reason: Infeasibility::JointLimit { joint, position },
+            } => format!(
+                "{}: the canonical configuration Φ_g⁻¹(q) puts `{}` at {position:.4}, outside its limits",
+                self.describe(),
+                name(joint)
+            ),
+            Rejection::InfeasibleCondition { reason } => format!("{}: {reason}", self.describe()),
             _ => self.describe().to_string(),
         }
     }
@@ -361,6 +470,9 @@ pub enum StatusCode {
     PolicyNonfinite = 19,
     /// Shutting down: the final zero / hold command was produced.
     Shutdown = 20,
+    /// A canonicalised policy's flows failed from the current state (the robot moved to
+    /// where the accepted condition is singular): zero velocity, filtered.
+    ConditionInfeasible = 21,
 }
 
 impl StatusCode {
@@ -375,6 +487,7 @@ impl StatusCode {
             StatusCode::SafetyFallback => "SAFETY_FALLBACK",
             StatusCode::PolicyNonfinite => "POLICY_NONFINITE",
             StatusCode::Shutdown => "SHUTDOWN",
+            StatusCode::ConditionInfeasible => "CONDITION_INFEASIBLE",
         }
     }
 
@@ -384,7 +497,7 @@ impl StatusCode {
     }
 
     /// Every code, for table checks.
-    pub const ALL: [StatusCode; 8] = [
+    pub const ALL: [StatusCode; 9] = [
         StatusCode::NoWarning,
         StatusCode::DecelerateForCollision,
         StatusCode::JointBound,
@@ -393,6 +506,7 @@ impl StatusCode {
         StatusCode::SafetyFallback,
         StatusCode::PolicyNonfinite,
         StatusCode::Shutdown,
+        StatusCode::ConditionInfeasible,
     ];
 
     /// Human-readable text of the code.
@@ -406,6 +520,9 @@ impl StatusCode {
             StatusCode::SafetyFallback => "safety QP failed: clamped policy output",
             StatusCode::PolicyNonfinite => "policy output not finite: replaced by 0",
             StatusCode::Shutdown => "shutting down: final zero/hold command",
+            StatusCode::ConditionInfeasible => {
+                "condition infeasible from the current state (singular flow): zero velocity"
+            }
         }
     }
 }
@@ -618,6 +735,7 @@ pub struct InputGate {
     stale_timeout_s: f64,
     check_stamps: bool,
     domain: Option<ConditionDomain>,
+    feasibility: Option<Box<ConditionFeasibility>>,
     inputs: Inputs,
 }
 
@@ -631,6 +749,7 @@ impl InputGate {
             stale_timeout_s: cfg.stale_timeout_s,
             check_stamps: cfg.check_stamps,
             domain: None,
+            feasibility: None,
             inputs: Inputs::new(n, cfg.default_condition),
         }
     }
@@ -638,6 +757,15 @@ impl InputGate {
     /// The gate also rejects valid conditions outside `domain` (`None`: accepts them all).
     pub fn with_domain(mut self, domain: Option<ConditionDomain>) -> Self {
         self.domain = domain;
+        self
+    }
+
+    /// The gate also rejects conditions a canonicalised policy cannot follow from the latest
+    /// accepted joint state (`None`: no such check). Before the first joint state a valid
+    /// condition is accepted; the tick then reports [`StatusCode::ConditionInfeasible`] if
+    /// its flows fail.
+    pub fn with_feasibility(mut self, check: Option<ConditionFeasibility>) -> Self {
+        self.feasibility = check.map(Box::new);
         self
     }
 
@@ -741,10 +869,19 @@ impl InputGate {
                 value: m.reflection,
             })
         } else {
-            self.domain
+            let untrained = self
+                .domain
                 .as_ref()
                 .and_then(|d| d.check(&s).err())
-                .map(|part| Rejection::UntrainedCondition { part })
+                .map(|part| Rejection::UntrainedCondition { part });
+            match (untrained, self.feasibility.as_mut()) {
+                (Some(r), _) => Some(r),
+                (None, Some(f)) if self.inputs.state_time_s.is_some() => f
+                    .check(&self.inputs.q, &s)
+                    .err()
+                    .map(|reason| Rejection::InfeasibleCondition { reason }),
+                _ => None,
+            }
         };
         let i = &mut self.inputs;
         if let Some(r) = r {
@@ -760,6 +897,16 @@ impl InputGate {
     }
 }
 
+/// The feasibility check of a canonicalised policy (`None` for a plain one).
+fn feasibility(policy: &AnyPolicy, limits: &[JointLimits]) -> Option<ConditionFeasibility> {
+    match policy {
+        AnyPolicy::Canonicalised(p) => {
+            Some(ConditionFeasibility::new((**p).clone(), limits.to_vec()))
+        }
+        AnyPolicy::Plain(_) => None,
+    }
+}
+
 /// Replaces the policy's output in [`NodeCore::tick`] (fault campaigns): called with the
 /// tick count, the measured `q` and the policy's velocity, which it may overwrite.
 pub type PolicyOverride = Box<dyn FnMut(u64, &[f64], &mut [f64]) + Send>;
@@ -769,8 +916,8 @@ pub struct NodeCore {
     cfg: NodeConfig,
     kin: Kinematics,
     kws: KinematicsWorkspace,
-    policy: Policy,
-    pws: PolicyWorkspace,
+    policy: AnyPolicy,
+    pws: AnyWorkspace,
     filter: SafetyFilter,
     limits: Vec<JointLimits>,
     n: usize,
@@ -795,6 +942,7 @@ pub struct NodeCore {
     stale_ticks: u64,
     fallback_ticks: u64,
     nonfinite_ticks: u64,
+    infeasible_ticks: u64,
     active: u32,
     age_s: f64,
     tick_time_us: f64,
@@ -815,7 +963,11 @@ impl NodeCore {
                 path: cfg.path.clone(),
             })?;
         let robot = cfg.load_robot()?;
-        let policy = Policy::load(&policy_path)?;
+        let policy = crate::pipeline::load_any_policy(cfg, &robot.kinematics, &policy_path)
+            .map_err(|e| match e {
+                crate::pipeline::PipelineError::Policy(source) => NodeSetupError::Policy { source },
+                source => NodeSetupError::PolicyFit { source },
+            })?;
         let safety = node.safety;
         Ok(Self::new(robot.kinematics, policy, safety, node)?)
     }
@@ -824,20 +976,30 @@ impl NodeCore {
     /// `cfg.period_s`. The policy must have `kin.dof()` joints (and, if it names them,
     /// the same names in the same order). With `safety.min_ee_distance`, the robot must
     /// have exactly two chains of the same task dimension (the two end-effectors).
+    ///
+    /// A policy whose sidecar records a composition is canonicalised through `kin`
+    /// ([`AnyPolicy::new`]): the node then accepts any condition that is feasible from the
+    /// current joint state ([`ConditionFeasibility`]) instead of a trained box.
     pub fn new(
         kin: Kinematics,
-        policy: Policy,
+        policy: impl Into<AnyPolicy>,
         safety: SafetySettings,
         cfg: NodeConfig,
     ) -> Result<Self, NodeError> {
         cfg.validate()?;
+        let policy = match policy.into() {
+            AnyPolicy::Plain(p) if p.meta.canonicalised.is_some() => {
+                AnyPolicy::new(*p, &kin).map_err(|message| NodeError::Policy { message })?
+            }
+            other => other,
+        };
         let n = kin.dof();
         if policy.dim() != n {
             return Err(NodeError::Policy {
                 message: format!("policy has {} joints, robot controls {n}", policy.dim()),
             });
         }
-        let names = &policy.meta.joint_names;
+        let names = &policy.network().meta.joint_names;
         if !names.is_empty() && names.as_slice() != kin.joint_names() {
             return Err(NodeError::Policy {
                 message: format!(
@@ -847,7 +1009,7 @@ impl NodeCore {
                 ),
             });
         }
-        if let Some(t) = policy.task_features() {
+        if let Some(t) = policy.network().task_features() {
             t.check_kinematics(&kin)
                 .map_err(|message| NodeError::Policy { message })?;
         }
@@ -904,7 +1066,9 @@ impl NodeCore {
                 });
             }
         }
-        let gate = InputGate::new(kin.joint_names(), &cfg).with_domain(domain);
+        let gate = InputGate::new(kin.joint_names(), &cfg)
+            .with_domain(domain)
+            .with_feasibility(feasibility(&policy, &limits));
         Ok(Self {
             kws,
             pws,
@@ -929,6 +1093,7 @@ impl NodeCore {
             stale_ticks: 0,
             fallback_ticks: 0,
             nonfinite_ticks: 0,
+            infeasible_ticks: 0,
             active: 0,
             age_s: -1.0,
             tick_time_us: 0.0,
@@ -991,7 +1156,14 @@ impl NodeCore {
 
     /// A separate input gate for this node (for an I/O thread feeding [`NodeCore::load_inputs`]).
     pub fn input_gate(&self) -> InputGate {
-        InputGate::new(self.kin.joint_names(), &self.cfg).with_domain(self.gate.domain)
+        InputGate::new(self.kin.joint_names(), &self.cfg)
+            .with_domain(self.gate.domain)
+            .with_feasibility(feasibility(&self.policy, &self.limits))
+    }
+
+    /// The policy (plain or canonicalised).
+    pub fn policy(&self) -> &AnyPolicy {
+        &self.policy
     }
 
     /// Replaces the node's inputs by `src` (from another gate); allocation-free.
@@ -1111,13 +1283,22 @@ impl NodeCore {
         // features the point `f(q)` (the same FK as the policy's stored chains, checked at
         // setup).
         self.kin.jacobian(q, &mut self.kws);
-        self.policy.velocity_at(
-            q,
-            self.kws.x.as_slice(),
-            &inputs.condition,
-            &mut self.v_policy,
-            &mut self.pws,
-        );
+        let infeasible = self
+            .policy
+            .velocity_at(
+                q,
+                self.kws.x.as_slice(),
+                &inputs.condition,
+                &mut self.v_policy,
+                &mut self.pws,
+            )
+            .is_err();
+        if infeasible {
+            // The accepted condition's flows fail from here: no policy velocity (the filter
+            // replaces the non-finite output by 0 and brakes within the limits).
+            self.v_policy.fill(f64::NAN);
+            self.infeasible_ticks = self.infeasible_ticks.saturating_add(1);
+        }
         if let Some(f) = self.policy_override.as_mut() {
             f(self.ticks, q, &mut self.v_policy);
         }
@@ -1185,6 +1366,8 @@ impl NodeCore {
             StatusCode::InvalidInput
         } else if report.status == SafetyStatus::Fallback {
             StatusCode::SafetyFallback
+        } else if infeasible {
+            StatusCode::ConditionInfeasible
         } else if report.policy_nonfinite {
             StatusCode::PolicyNonfinite
         } else if report.active > 0 {

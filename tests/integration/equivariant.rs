@@ -6,7 +6,7 @@
 use crossym::policy::{EquivariantPolicy, Policy};
 use crossym::symmetry::check::BuiltSymmetry;
 use crossym::symmetry::compose::{apply_condition, Condition};
-use crossym::symmetry::transfer::composed::ComposedLift;
+use crossym::symmetry::transfer::composed::{ComposedLift, LiftIntegrator};
 use crossym::symmetry::transfer::flow::FlowSettings;
 
 use crate::common;
@@ -85,7 +85,7 @@ fn step(q: &mut [f64], h: f64, rk4: bool, f: &mut dyn FnMut(&[f64], &mut [f64]))
 fn conjugacy_gap(
     kin: &crossym::kinematics::Kinematics,
     built: &[BuiltSymmetry],
-    eq: &EquivariantPolicy<'_>,
+    eq: &EquivariantPolicy,
     base: &Policy,
     s: &Condition,
     q_start: &[f64],
@@ -132,7 +132,13 @@ fn closed_loop_under_any_feasible_condition_is_conjugate_to_the_identity_one() {
         atol: 1e-13,
         ..FlowSettings::default()
     };
-    let lift = ComposedLift::new(kin, &built, &cfg.composition.order, flow).unwrap();
+    let lift = ComposedLift::from_symmetries(
+        kin,
+        &built,
+        &cfg.composition.order,
+        LiftIntegrator::Adaptive { settings: flow },
+    )
+    .unwrap();
     let base = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
     let eq = EquivariantPolicy::new(base.clone(), lift).unwrap();
     let q_start = demos.demos[0].q(0).to_vec();
@@ -188,7 +194,15 @@ fn canonicalised_policy_error_is_the_original_error_times_the_scale() {
     let (cfg, robot, demos) = common::task("letters.toml");
     let kin = &robot.kinematics;
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries).unwrap();
-    let lift = ComposedLift::new(kin, &built, &cfg.composition.order, letter_flow()).unwrap();
+    let lift = ComposedLift::from_symmetries(
+        kin,
+        &built,
+        &cfg.composition.order,
+        LiftIntegrator::Adaptive {
+            settings: letter_flow(),
+        },
+    )
+    .unwrap();
     let base = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
     let eq = EquivariantPolicy::new(base.clone(), lift).unwrap();
     let mut plain_spread: f64 = 0.0;

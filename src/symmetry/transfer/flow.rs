@@ -209,6 +209,79 @@ pub fn integrate(
     st
 }
 
+/// Integrates `dy/dt = X(y)` from `y0` over time `t` (may be negative) into `out` with
+/// `steps` classical Runge–Kutta 4 steps of size `t / steps` (four field evaluations each,
+/// global error `O((t / steps)⁴)`, no error control). Allocation-free; `steps = 0` copies.
+///
+/// For a fixed cost per call (the control tick); [`integrate`] controls the error instead.
+///
+/// ```
+/// use crossym::symmetry::field::FnField;
+/// use crossym::symmetry::transfer::flow::{integrate_rk4, FlowWorkspace};
+///
+/// // Rotation generator (x, y) ↦ (−y, x): the flow for time t rotates by t.
+/// let rot = FnField::new(2, |p: &[f64], o: &mut [f64]| {
+///     o[0] = -p[1];
+///     o[1] = p[0];
+/// });
+/// let (mut out, mut ws) = ([0.0; 2], FlowWorkspace::new(2));
+/// assert!(integrate_rk4(&rot, -1.0, 8, &[1.0, 0.0], &mut out, &mut ws).is_done());
+/// // RK4 at step 1/8: error ≈ (1/8)⁴ / 120 per unit time.
+/// assert!((out[0] - 1f64.cos()).abs() < 1e-5 && (out[1] + 1f64.sin()).abs() < 1e-5);
+/// ```
+pub fn integrate_rk4(
+    field: &dyn VectorField,
+    t: f64,
+    steps: usize,
+    y0: &[f64],
+    out: &mut [f64],
+    ws: &mut FlowWorkspace,
+) -> FlowStatus {
+    let d = y0.len();
+    debug_assert_eq!(ws.dim(), d);
+    out.copy_from_slice(y0);
+    if steps == 0 || t == 0.0 {
+        return FlowStatus::Done {
+            steps: 0,
+            rejected: 0,
+        };
+    }
+    let h = t / steps as f64;
+    let [k1, k2, k3, k4, ..] = &mut ws.k;
+    let tmp = &mut ws.tmp;
+    for i in 0..steps {
+        let t_i = i as f64 * h;
+        if !field.eval(out, k1) {
+            return FlowStatus::FieldUndefined { t: t_i };
+        }
+        for j in 0..d {
+            tmp[j] = out[j] + 0.5 * h * k1[j];
+        }
+        if !field.eval(tmp, k2) {
+            return FlowStatus::FieldUndefined { t: t_i };
+        }
+        for j in 0..d {
+            tmp[j] = out[j] + 0.5 * h * k2[j];
+        }
+        if !field.eval(tmp, k3) {
+            return FlowStatus::FieldUndefined { t: t_i };
+        }
+        for j in 0..d {
+            tmp[j] = out[j] + h * k3[j];
+        }
+        if !field.eval(tmp, k4) {
+            return FlowStatus::FieldUndefined { t: t_i };
+        }
+        for j in 0..d {
+            out[j] += h / 6.0 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j]);
+        }
+        if out.iter().any(|v| !v.is_finite()) {
+            return FlowStatus::NonFinite { t: t_i + h };
+        }
+    }
+    FlowStatus::Done { steps, rejected: 0 }
+}
+
 /// Integrates `dy/dt = X(y)` from `y0` through the checkpoints `ts` and calls
 /// `visit(i, y(ts[i]))` at each one reached. Allocation-free.
 ///

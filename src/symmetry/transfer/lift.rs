@@ -68,10 +68,39 @@ pub enum LiftError {
 pub struct LiftedField<'a, F: VectorField> {
     kin: &'a Kinematics,
     task: F,
-    scratch: RefCell<LiftScratch>,
+    scratch: ScratchCell<'a>,
+}
+
+/// The scratch of a [`LiftedField`] held by the field, or borrowed from a caller-owned
+/// [`LiftFieldScratch`] (a field built per call without allocating).
+enum ScratchCell<'a> {
+    Owned(Box<RefCell<LiftScratch>>),
+    Borrowed(&'a RefCell<LiftScratch>),
+}
+
+impl ScratchCell<'_> {
+    fn cell(&self) -> &RefCell<LiftScratch> {
+        match self {
+            Self::Owned(c) => c,
+            Self::Borrowed(c) => c,
+        }
+    }
+}
+
+/// Caller-owned scratch for [`LiftedField::with_scratch`]: allocate once (setup), then
+/// build a lifted field per call at no allocation (the control tick).
+#[derive(Debug, Clone)]
+pub struct LiftFieldScratch(RefCell<LiftScratch>);
+
+impl LiftFieldScratch {
+    /// Scratch sized for `kin`.
+    pub fn new(kin: &Kinematics) -> Self {
+        Self(RefCell::new(LiftScratch::new(kin)))
+    }
 }
 
 /// Interior scratch of a [`LiftedField`] (allocated once in [`LiftedField::new`]).
+#[derive(Debug, Clone)]
 struct LiftScratch {
     ws: KinematicsWorkspace,
     /// Task velocity `v(f(q))`, then the residual `r` of the derivative (m).
@@ -88,6 +117,22 @@ struct LiftScratch {
     probe: Vec<f64>,
 }
 
+impl LiftScratch {
+    fn new(kin: &Kinematics) -> Self {
+        let (m, n) = (kin.task_dim(), kin.dof());
+        Self {
+            ws: kin.workspace(),
+            xdot: vec![0.0; m],
+            xp: vec![0.0; m],
+            vp: vec![0.0; m],
+            u: vec![0.0; m],
+            jtu: vec![0.0; n],
+            g: vec![0.0; n],
+            probe: vec![0.0; m],
+        }
+    }
+}
+
 impl<'a, F: VectorField> LiftedField<'a, F> {
     /// Lifts `task` (a field on `X`, `task.dim() == kin.task_dim()`) through `kin`.
     pub fn new(kin: &'a Kinematics, task: F) -> Self {
@@ -96,20 +141,25 @@ impl<'a, F: VectorField> LiftedField<'a, F> {
             kin.task_dim(),
             "task field dimension differs from dim X"
         );
-        let (m, n) = (kin.task_dim(), kin.dof());
         Self {
             kin,
             task,
-            scratch: RefCell::new(LiftScratch {
-                ws: kin.workspace(),
-                xdot: vec![0.0; m],
-                xp: vec![0.0; m],
-                vp: vec![0.0; m],
-                u: vec![0.0; m],
-                jtu: vec![0.0; n],
-                g: vec![0.0; n],
-                probe: vec![0.0; m],
-            }),
+            scratch: ScratchCell::Owned(Box::new(RefCell::new(LiftScratch::new(kin)))),
+        }
+    }
+
+    /// Lifts `task` through `kin` using the caller's `scratch` (sized for `kin`): builds
+    /// the field without allocating.
+    pub fn with_scratch(kin: &'a Kinematics, task: F, scratch: &'a LiftFieldScratch) -> Self {
+        debug_assert_eq!(
+            task.dim(),
+            kin.task_dim(),
+            "task field dimension differs from dim X"
+        );
+        Self {
+            kin,
+            task,
+            scratch: ScratchCell::Borrowed(&scratch.0),
         }
     }
 
@@ -127,7 +177,7 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
         if q.iter().any(|v| !v.is_finite()) {
             return false;
         }
-        let mut s = self.scratch.borrow_mut();
+        let mut s = self.scratch.cell().borrow_mut();
         let LiftScratch { ws, xdot, .. } = &mut *s;
         self.kin.jacobian(q, ws);
         if !self.task.eval(ws.x.as_slice(), xdot) {
@@ -159,7 +209,7 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
         if q.iter().chain(delta).any(|v| !v.is_finite()) {
             return Some(false);
         }
-        let mut s = self.scratch.borrow_mut();
+        let mut s = self.scratch.cell().borrow_mut();
         let LiftScratch {
             ws,
             xdot,
