@@ -25,9 +25,14 @@ pub struct DemoArgs {
     #[arg(long)]
     pub demo: Option<usize>,
     /// Conditions `theta_rad:scale:reflection`, repeatable; default: original, rotated
-    /// 30°, scaled 0.8, reflected, and all three composed.
+    /// 30°, scaled 0.8, reflected, and all three composed (a canonicalised policy also gets
+    /// two conditions off the training grid: 17° + 0.73 + reflected, 170° + 1.15 + reflected).
     #[arg(long = "condition", allow_hyphen_values = true)]
     pub conditions: Vec<String>,
+    /// Policy file (`.safetensors` with its sidecar) instead of `[node] policy`, e.g. the
+    /// canonicalised `data/policies/pi_eq_planar.safetensors` (any feasible condition).
+    #[arg(long)]
+    pub policy: Option<PathBuf>,
     /// Draw only the first seconds of each letter (default: the whole letter).
     #[arg(long)]
     pub duration_s: Option<f64>,
@@ -98,6 +103,30 @@ fn default_conditions() -> Vec<(String, Condition)> {
     ]
 }
 
+/// Conditions off every training grid, for a canonicalised policy (exactly equivariant
+/// wherever the lifted flows are feasible): θ = 17°, λ = 0.73 and θ = 170°, λ = 1.15 (a
+/// scale above the grid's largest, 1), both reflected.
+fn off_grid_conditions() -> Vec<(String, Condition)> {
+    vec![
+        (
+            "off-grid: rot 17° + scale 0.73 + refl".into(),
+            Condition {
+                theta: 17f64.to_radians(),
+                scale: 0.73,
+                reflection: -1,
+            },
+        ),
+        (
+            "off-grid: rot 170° + scale 1.15 + refl".into(),
+            Condition {
+                theta: 170f64.to_radians(),
+                scale: 1.15,
+                reflection: -1,
+            },
+        ),
+    ]
+}
+
 /// A child process that is terminated (SIGTERM, then killed) when dropped.
 struct Proc {
     name: &'static str,
@@ -157,7 +186,11 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let cfg = Config::from_file(&a.config)?;
-    let node_cfg = super::ros::node_config(&cfg, &super::ros::NodeOverrides::default())?;
+    let overrides = super::ros::NodeOverrides {
+        policy: a.policy.clone(),
+        ..Default::default()
+    };
+    let node_cfg = super::ros::node_config(&cfg, &overrides)?;
     let hw_cfg = cfg.mock_hw.clone().unwrap_or_default();
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
@@ -178,6 +211,9 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("policy {}", policy_path.display()))?;
     let conditions: Vec<(String, Condition)> = if a.conditions.is_empty() {
         let mut kept = default_conditions();
+        if policy.composition().is_some() {
+            kept.extend(off_grid_conditions());
+        }
         if let Some(d) = &domain {
             kept.retain(|(label, c)| {
                 let ok = d.check(c).is_ok();
@@ -285,6 +321,9 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     }
     let mut node_cmd = child("node");
     node_cmd.arg("--record").arg(&bag_dir);
+    if let Some(p) = &a.policy {
+        node_cmd.arg("--policy").arg(p);
+    }
     let mut node = Proc::spawn("node", node_cmd, &a.out.join("node.log"))?;
     println!(
         "  started mock-hw and node (domain {}, localhost only); logs in {}",
@@ -385,7 +424,7 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
         failures.push(format!("node exited with {node_rc}"));
     }
     // The recorded bag replays bit for bit through the node's logic.
-    let replay_line = match replay_bag(&bag_dir, &a.config) {
+    let replay_line = match replay_bag(&bag_dir, &a.config, &overrides) {
         Ok((commands, dev)) => {
             if dev > 1e-9 {
                 failures.push(format!(
@@ -472,10 +511,14 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// Replays the recorded bag; (commands compared, max deviation).
-fn replay_bag(dir: &Path, config: &Path) -> anyhow::Result<(usize, f64)> {
+fn replay_bag(
+    dir: &Path,
+    config: &Path,
+    overrides: &super::ros::NodeOverrides,
+) -> anyhow::Result<(usize, f64)> {
     use crossym::bag::replay::{replay, ReplayTopics};
     let bag = crossym::bag::Bag::open(dir)?;
-    let (_, mut core) = super::ros::build_core(config, &super::ros::NodeOverrides::default())?;
+    let (_, mut core) = super::ros::build_core(config, overrides)?;
     let topics = ReplayTopics::for_node(core.config());
     let r = replay(&bag, &mut core, &topics)?;
     anyhow::ensure!(

@@ -31,6 +31,13 @@ pub struct EquivariantWorkspace {
     q1: Vec<f64>,
 }
 
+impl EquivariantWorkspace {
+    /// The composed lift's scratch: its last residual and integrator steps.
+    pub fn lift(&self) -> &ComposedWorkspace {
+        &self.lift
+    }
+}
+
 impl EquivariantPolicy {
     /// `π₀` (evaluated at the identity condition) and the composed action it is
     /// canonicalised by; the policy must drive the lift's robot.

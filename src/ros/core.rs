@@ -769,6 +769,11 @@ impl InputGate {
         self
     }
 
+    /// Whether the gate checks conditions for feasibility (a canonicalised policy).
+    pub fn checks_feasibility(&self) -> bool {
+        self.feasibility.is_some()
+    }
+
     /// The condition domain this gate enforces, if any.
     pub fn domain(&self) -> Option<&ConditionDomain> {
         self.domain.as_ref()

@@ -617,10 +617,15 @@ fn startup_summary(
             cfg.policy
                 .as_ref()
                 .map_or("(none)".into(), |p| p.display().to_string()),
-            gate.domain().map_or_else(
-                || "any valid (accept_untrained_conditions, or no training record)".to_string(),
-                |d| format!("the trained box, {}", d.describe())
-            )
+            match (gate.domain(), gate.checks_feasibility()) {
+                (_, true) => "any whose lifted flows are feasible from the current joint state \
+                              (canonicalised policy)"
+                    .to_string(),
+                (Some(d), false) => format!("the trained box, {}", d.describe()),
+                (None, false) => {
+                    "any valid (accept_untrained_conditions, or no training record)".to_string()
+                }
+            }
         ),
         format!(
             "topics: in {} (JointState, best effort, keep last 5), {} (SymmetryCondition, reliable, keep last 10); out {} ({}, reliable, keep last 10), {} (Status every {} s, reliable, keep last 10); DDS domain {}",

@@ -259,3 +259,130 @@ fn canonicalise_of_an_unknown_label_is_refused() {
     );
     assert!(!dir.join("table2.md").exists());
 }
+
+/// A canonicalised policy saved and loaded again evaluates bit for bit like the one in
+/// memory; a sidecar whose composition is not the config's — the rotation about another
+/// centre, another order — is refused with what differs; a plain policy loads as plain.
+#[test]
+fn canonicalised_sidecar_round_trips_and_a_foreign_composition_is_refused() {
+    let (cfg, robot, demos) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let plain_file = common::path("data/policies/pi_mrt_planar.safetensors");
+    let base = Policy::load(&plain_file).unwrap();
+    let any = crossym::pipeline::canonicalise(&cfg, kin, base).unwrap();
+    let dir = common::temp_dir("eq-sidecar");
+    let file = dir.join("pi_eq.safetensors");
+    any.network().save(&file).unwrap();
+    let loaded = crossym::pipeline::load_any_policy(&cfg, kin, &file).unwrap();
+    assert!(loaded.composition().is_some(), "loads canonicalised");
+    assert_eq!(loaded.composition(), any.composition());
+    let q = demos.demos[0].q(0);
+    let (mut wa, mut wb) = (any.workspace(), loaded.workspace());
+    let (mut va, mut vb) = (vec![0.0; 8], vec![0.0; 8]);
+    for s in CONDITIONS.iter().take(1).chain([&Condition::IDENTITY]) {
+        any.velocity(q, s, &mut va, &mut wa).unwrap();
+        loaded.velocity(q, s, &mut vb, &mut wb).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&va), bits(&vb), "{s:?}");
+    }
+    // The plain file stays plain.
+    let plain = crossym::pipeline::load_any_policy(&cfg, kin, &plain_file).unwrap();
+    assert!(plain.composition().is_none());
+
+    // Foreign compositions, written as another tool (or an older config) would.
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("pi_eq.json")).unwrap()).unwrap();
+    let foreign = |name: &str, edit: &dyn Fn(&mut serde_json::Value)| -> String {
+        let mut json = sidecar.clone();
+        edit(&mut json["canonicalised"]);
+        json["weights_file"] = format!("{name}.safetensors").into();
+        std::fs::copy(&file, dir.join(format!("{name}.safetensors"))).unwrap();
+        std::fs::write(
+            dir.join(format!("{name}.json")),
+            serde_json::to_string_pretty(&json).unwrap(),
+        )
+        .unwrap();
+        let err = match crossym::pipeline::load_any_policy(
+            &cfg,
+            kin,
+            &dir.join(format!("{name}.safetensors")),
+        ) {
+            Ok(_) => panic!("{name}: a foreign composition was accepted"),
+            Err(e) => e.to_string(),
+        };
+        println!("{name}: {err}");
+        err
+    };
+    // Rotation about a point 0.5 further along x: b' = b − A (0.5 e_x) for h(x) = A x + b.
+    let err = foreign("moved_centre", &|c| {
+        let rot = &mut c["task"]["rotation"];
+        let m = rot["offset"].as_array().unwrap().len();
+        for i in 0..m {
+            let a = rot["linear"][i * m].as_f64().unwrap();
+            let b = rot["offset"][i].as_f64().unwrap();
+            rot["offset"][i] = (b - 0.5 * a).into();
+        }
+    });
+    assert!(
+        err.contains("another composition") && err.contains("rotation"),
+        "{err}"
+    );
+    let err = foreign("other_order", &|c| {
+        c["order"] = serde_json::json!(["M", "S", "R"]);
+    });
+    assert!(err.contains("order"), "{err}");
+}
+
+/// `crossym train --equivariant` writes a policy whose sidecar records the config's
+/// composition (the network trained on the original demonstrations only), and `crossym
+/// rollout` loads it like any policy and follows an off-grid condition.
+#[test]
+fn train_equivariant_writes_a_canonicalised_policy_that_rollout_loads() {
+    let dir = common::temp_dir("train-equivariant");
+    let out = dir.join("pi_eq.safetensors");
+    let config = common::path("config/letters.toml");
+    let train = common::crossym(["train", "--equivariant", "--iterations", "30", "--config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&train.stdout);
+    assert!(
+        train.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&train.stderr)
+    );
+    assert!(
+        stdout.contains("of Original"),
+        "trains on the originals: {stdout}"
+    );
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("pi_eq.json")).unwrap()).unwrap();
+    assert_eq!(
+        sidecar["canonicalised"]["order"],
+        serde_json::json!(["M", "R", "S"])
+    );
+    let rollout = common::crossym(["rollout", "--condition", "0.2967:0.73:-1", "--config"])
+        .arg(&config)
+        .arg("--policy")
+        .arg(&out)
+        .arg("--out")
+        .arg(dir.join("rollout.csv"))
+        .output()
+        .unwrap();
+    assert!(
+        rollout.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&rollout.stdout),
+        String::from_utf8_lossy(&rollout.stderr)
+    );
+    // Refused next to --group (π₀ is always trained on the originals).
+    let both = common::crossym(["train", "--equivariant", "--group", "MRT", "--config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(dir.join("x.safetensors"))
+        .output()
+        .unwrap();
+    assert!(!both.status.success());
+}
