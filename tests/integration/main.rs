@@ -10,6 +10,7 @@ mod data;
 mod dds;
 mod descend;
 mod equivariant;
+mod equivariant_node;
 mod eval;
 mod faults;
 mod kinematics;
