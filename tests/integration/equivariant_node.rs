@@ -13,6 +13,7 @@
 //!   URDF (roxmltree, not crossym's parser) and the task-space action is written in closed
 //!   form (rotation about the origin, scaling about the origin, the mirror across the
 //!   x-axis swapping the arms; `config/letters.toml` gives `R` and `S` no `center`);
+//! - a run recorded with `--record` under these conditions replays bit for bit.
 //!
 //! The robot starts at the first demonstration's first sample (`[mock_hw] initial_q`),
 //! where these conditions were measured with the library before the tests were written:
@@ -24,11 +25,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use crossym::bag::replay::{replay, ReplayTopics};
+use crossym::bag::Bag;
 use crossym::config::Config;
 use crossym::kinematics::Kinematics;
 use crossym::policy::{AnyPolicy, ConditionDomain, DomainViolation, Policy};
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
-use crossym::ros::{msg, StatusCode};
+use crossym::ros::{msg, NodeCore, StatusCode};
 use crossym::sim::MockHwSummary;
 use crossym::symmetry::compose::Condition;
 
@@ -734,4 +737,106 @@ fn canonicalised_node_accepts_feasible_and_rejects_infeasible_conditions() {
         o.joint_states.len(),
         t0.elapsed().as_secs_f64()
     );
+}
+
+/// A run of the canonicalised policy recorded by `crossym node --record` — the off-grid
+/// condition, the infeasible one rejected mid-motion, then one outside the plain box —
+/// replays bit for bit through the node's logic: every recorded command recomputed from
+/// its input snapshot (the feasibility gate included) to the same bits, in the library
+/// and by `crossym replay`. The plain π_MRT does not reproduce it.
+#[test]
+fn canonicalised_node_recording_replays_bit_for_bit() {
+    let t0 = Instant::now();
+    let t = setup("bag");
+    let domain = 112u16;
+    let bag_dir = t.dir.join("bag");
+    let (hw, node, _hw_log, log) = start(&t, domain, Some(&bag_dir));
+    let mut o = Observer::new(domain, &t.cfg, &t.joints);
+    wait_running(&mut o, &log);
+    o.apply(&FEASIBLE, &log);
+    o.run_ticks(TICKS_PER_STEP, &log);
+    o.publish(&INFEASIBLE);
+    assert!(
+        o.wait(|o| o.last_status().rejected_conditions >= 1),
+        "{INFEASIBLE:?} was not rejected within {DEADLINE:?}\n{}",
+        log_tail(&log)
+    );
+    o.run_ticks(TICKS_PER_STEP / 2, &log);
+    o.apply(&OUTSIDE_BOX, &log);
+    o.run_ticks(TICKS_PER_STEP, &log);
+    let s = stop(&t, hw, node, &log);
+    assert_eq!(s.violation_count, 0, "{:?}", s.violations);
+
+    let bag = Bag::open(&bag_dir).unwrap();
+    let n = t.cfg.node_config();
+    let topics = ReplayTopics::for_node(&n);
+    let count = |name: &str| bag.topic(name).map_or(0, |i| bag.topics[i].count);
+    let recorded = count(&topics.command);
+    // The conditions as the node received them: the accepted ones and the infeasible one.
+    let cond = bag.topic(&topics.condition).expect("conditions recorded");
+    let got: Vec<Condition> = (0..bag.messages.len())
+        .filter(|&i| bag.messages[i].topic == cond)
+        .map(|i| {
+            let m: msg::SymmetryCondition = bag.decode(i).unwrap();
+            Condition {
+                theta: m.theta,
+                scale: m.scale,
+                reflection: m.reflection,
+            }
+        })
+        .collect();
+    for s in [FEASIBLE, INFEASIBLE, OUTSIDE_BOX] {
+        assert!(got.contains(&s), "{s:?} not in the bag's {got:?}");
+    }
+    assert_eq!(got.iter().filter(|&&s| s == INFEASIBLE).count(), 1);
+    // The recorded statuses show the rejection.
+    let st = bag
+        .topic(&dds::expand_topic(&n.topics.status, &n.namespace, &n.name))
+        .expect("status recorded");
+    let rejected = (0..bag.messages.len())
+        .filter(|&i| bag.messages[i].topic == st)
+        .map(|i| bag.decode::<msg::Status>(i).unwrap())
+        .find(|s| s.rejected_conditions == 1)
+        .expect("a recorded status after the rejection");
+    assert!(rejected.last_error.contains("infeasible"), "{rejected:?}");
+    assert!(echoes(&rejected, &FEASIBLE), "{rejected:?}");
+
+    let mut core = NodeCore::from_config(&t.cfg, n.clone()).unwrap();
+    assert!(
+        core.policy().composition().is_some(),
+        "replayed canonicalised"
+    );
+    let r = replay(&bag, &mut core, &topics).unwrap();
+    eprintln!("replay: {r:?} of {recorded} recorded commands");
+    assert!(r.commands >= 2 * TICKS_PER_STEP as usize, "{r:?}");
+    assert_eq!(
+        r.commands, recorded,
+        "every recorded command recomputed: {r:?}"
+    );
+    assert_eq!(r.unmatched, 0, "{r:?}");
+    assert_eq!(r.max(), 0.0, "bit for bit: {r:?}");
+    // The CLI says the same.
+    let out = exe()
+        .arg("replay")
+        .arg(&bag_dir)
+        .arg("--config")
+        .arg(&t.config)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("replay: OK"),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The plain policy the canonicalised one was made from does not reproduce the run
+    // (accepting every condition, so that only the policy differs).
+    let plain_cfg = crossym::ros::NodeConfig {
+        accept_untrained_conditions: true,
+        ..n.clone()
+    };
+    let mut plain = NodeCore::new(t.kin.clone(), t.plain.clone(), n.safety, plain_cfg).unwrap();
+    let r = replay(&bag, &mut plain, &topics).unwrap();
+    assert!(r.max() > 1e-6, "the plain policy replays the run: {r:?}");
+    eprintln!("bag test in {:.1} s", t0.elapsed().as_secs_f64());
 }
