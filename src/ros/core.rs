@@ -607,6 +607,9 @@ pub struct StatusSnapshot {
     pub fallback_ticks: u64,
     /// Ticks on which the policy returned non-finite velocities (count).
     pub nonfinite_ticks: u64,
+    /// Ticks on which a canonicalised policy's flows failed for the accepted condition
+    /// (zero velocity commanded; count).
+    pub infeasible_ticks: u64,
     /// Age of the joint state at the last tick (s); negative when none.
     pub joint_state_age_s: f64,
     /// Duration of the last tick (µs), as recorded by the caller.
@@ -1364,7 +1367,8 @@ impl NodeCore {
         if report.status == SafetyStatus::Fallback {
             self.fallback_ticks = self.fallback_ticks.saturating_add(1);
         }
-        if report.policy_nonfinite {
+        // The NaN of an infeasible condition is reported as such, not as a policy fault.
+        if report.policy_nonfinite && !infeasible {
             self.nonfinite_ticks = self.nonfinite_ticks.saturating_add(1);
         }
         self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
@@ -1428,6 +1432,7 @@ impl NodeCore {
             stale_ticks: self.stale_ticks,
             fallback_ticks: self.fallback_ticks,
             nonfinite_ticks: self.nonfinite_ticks,
+            infeasible_ticks: self.infeasible_ticks,
             joint_state_age_s: self.age_s,
             tick_time_us: self.tick_time_us,
             tick_time_max_us: self.tick_time_max_us,

@@ -256,6 +256,7 @@ impl StatusWatch {
         let prev = self.last.unwrap_or(StatusSnapshot {
             fallback_ticks: 0,
             nonfinite_ticks: 0,
+            infeasible_ticks: 0,
             ..*s
         });
         for (kind, all, before, what) in [
@@ -270,6 +271,12 @@ impl StatusWatch {
                 s.nonfinite_ticks,
                 prev.nonfinite_ticks,
                 "policy returned non-finite velocities (replaced by 0)",
+            ),
+            (
+                "condition_infeasible",
+                s.infeasible_ticks,
+                prev.infeasible_ticks,
+                "the accepted condition's lifted flows fail from the current joint state (zero velocity)",
             ),
         ] {
             let new = all.saturating_sub(before);
@@ -368,6 +375,7 @@ mod tests {
             stale_ticks: 1,
             fallback_ticks: 0,
             nonfinite_ticks: 0,
+            infeasible_ticks: 0,
             joint_state_age_s: -1.0,
             tick_time_us: 1.0,
             tick_time_max_us: 1.0,
@@ -385,8 +393,10 @@ mod tests {
         s.stale_ticks = 40;
         s.fallback_ticks = 3;
         w.observe(&s, &mut log); // fresh again + fallback
+        s.infeasible_ticks = 2;
+        w.observe(&s, &mut log); // a canonicalised policy's condition became infeasible
         let l = lines.lock().unwrap().clone();
-        assert_eq!(l.len(), 5, "{l:?}");
+        assert_eq!(l.len(), 6, "{l:?}");
         assert!(l[0].contains("[WARN]") && l[0].contains("no joint state yet"));
         assert!(l[1].contains("joint states received"), "{}", l[1]);
         assert!(l[2].contains("joint states stale"));
@@ -399,6 +409,11 @@ mod tests {
             l[4].contains("fell back") && l[4].contains("on 3 tick"),
             "{}",
             l[4]
+        );
+        assert!(
+            l[5].contains("flows fail") && l[5].contains("on 2 tick"),
+            "{}",
+            l[5]
         );
     }
 }

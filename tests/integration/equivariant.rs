@@ -386,3 +386,103 @@ fn train_equivariant_writes_a_canonicalised_policy_that_rollout_loads() {
         .unwrap();
     assert!(!both.status.success());
 }
+
+/// A condition accepted where it is feasible becomes infeasible when the robot moves to
+/// where its flows fail: the node's tick then commands zero velocity (finite), reports
+/// CONDITION_INFEASIBLE and counts the tick as infeasible, not as a non-finite policy
+/// output. Infeasible there is shown independently: the canonical pen point
+/// `g⁻¹ f(q) = f(q)/λ` (rotation and scaling about the base, as the config's generators
+/// are) lies beyond the arm's reach, the sum of its link lengths read off the URDF.
+#[test]
+fn condition_that_becomes_infeasible_mid_motion_is_reported_and_braked() {
+    use crossym::ros::{msg, NodeConfig, NodeCore, StatusCode};
+    use crossym::safety::SafetySettings;
+    let (cfg, robot, demos) = common::task("letters.toml");
+    let kin = robot.kinematics.clone();
+    let base = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let policy = crossym::pipeline::canonicalise(&cfg, &kin, base).unwrap();
+    let s = CONDITIONS[0]; // 17°, λ = 0.73, σ = −1
+    let q_ok = demos.demos[0].q(0).to_vec();
+    let q_far = cfg.check.reference_q.clone().unwrap();
+    // Reach: the URDF's joint offsets along each arm (origin xyz of each joint after the
+    // first, and of the end effector), summed — not the kinematics under test.
+    let urdf = std::fs::read_to_string(common::path("urdf/planar_dual_arm.urdf")).unwrap();
+    let reach: f64 = urdf
+        .split("<joint ")
+        .filter(|j| j.contains("name=\"left_"))
+        .filter_map(|j| j.split("xyz=\"").nth(1))
+        .map(|xyz| {
+            xyz.split_whitespace()
+                .next()
+                .unwrap()
+                .parse::<f64>()
+                .unwrap()
+                .abs()
+        })
+        .sum();
+    assert!(reach > 0.0, "reach from the URDF");
+    let mut kws = kin.workspace();
+    let pen = |q: &[f64], kws: &mut crossym::kinematics::KinematicsWorkspace| {
+        let x = kin.forward(q, kws);
+        x[0].hypot(x[1]).max(x[2].hypot(x[3]))
+    };
+    let (r_ok, r_far) = (
+        pen(&q_ok, &mut kws) / s.scale,
+        pen(&q_far, &mut kws) / s.scale,
+    );
+    println!(
+        "reach {reach}; canonical pen distance {r_ok:.3} at the start, {r_far:.3} at the reference"
+    );
+    assert!(r_ok < reach && r_far > reach);
+
+    let names = kin.joint_names().to_vec();
+    let mut core = NodeCore::new(
+        kin,
+        policy,
+        SafetySettings::default(),
+        NodeConfig {
+            check_stamps: false,
+            ..NodeConfig::default()
+        },
+    )
+    .unwrap();
+    let mut cmd = core.command();
+    let js = |q: &[f64]| msg::JointState {
+        name: names.clone(),
+        position: q.to_vec(),
+        ..Default::default()
+    };
+    core.on_joint_state(&js(&q_ok), 0.0).unwrap();
+    core.on_condition(&msg::SymmetryCondition {
+        theta: s.theta,
+        scale: s.scale,
+        reflection: s.reflection,
+        ..Default::default()
+    })
+    .expect("feasible at the start");
+    let r = core.tick(0.0, &mut cmd);
+    assert_eq!(r.code, StatusCode::NoWarning);
+    assert!(cmd.velocities.iter().any(|v| *v != 0.0));
+    // The robot is now where the condition's flows fail.
+    for k in 1..=5 {
+        let t = k as f64 * 0.01;
+        core.on_joint_state(&js(&q_far), t).unwrap();
+        let r = core.tick(t, &mut cmd);
+        assert_eq!(r.code, StatusCode::ConditionInfeasible, "tick {k}");
+        assert!(r.publish && cmd.velocities.iter().all(|v| v.is_finite()));
+    }
+    let st = core.status();
+    assert_eq!(st.infeasible_ticks, 5);
+    assert_eq!(st.nonfinite_ticks, 0);
+    // Braking: the velocity decreases to zero under the acceleration bound.
+    let mut last = f64::INFINITY;
+    for k in 6..200 {
+        let t = k as f64 * 0.01;
+        core.on_joint_state(&js(&q_far), t).unwrap();
+        core.tick(t, &mut cmd);
+        let speed = cmd.velocities.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(speed <= last + 1e-12, "tick {k}: {speed} after {last}");
+        last = speed;
+    }
+    assert!(last < 1e-9, "stopped: {last}");
+}
