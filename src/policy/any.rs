@@ -100,6 +100,10 @@ impl AnyPolicy {
     /// `out = π(q, s)` (rad/s or m/s); allocation-free. A canonicalised policy fails where
     /// a flow of its composition does (a singularity, an invalid condition), leaving `out`
     /// untouched; a plain one never fails.
+    ///
+    /// # Panics
+    /// If `ws` was made by [`Self::workspace`] of the other kind of policy (a programming
+    /// error, never an input).
     pub fn velocity(
         &self,
         q: &[f64],
