@@ -211,6 +211,7 @@ pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
             y_desc: "joint position (rad or m)".into(),
             names: names.to_vec(),
             categorical: true,
+            ramp: None,
         };
         write_curves_png(&joints, &cfig, &curves, 900, 460).map_err(anyhow::Error::msg)?;
         println!("wrote {} and {}", task.display(), joints.display());

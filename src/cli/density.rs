@@ -2,7 +2,9 @@
 //!
 //! For each rotation step Δθ, `π_R` is trained on the training letters augmented with
 //! `θ = kΔθ` (λ = 1, σ = 1) and evaluated on the test letters rotated by every `θ` of a fine
-//! grid: RMSE (task units) against θ, one curve per Δθ.
+//! grid: RMSE (task units) against θ, one curve per Δθ. `--equivariant P` adds the curve
+//! of a canonicalised policy (issue 18: trained on the originals only, no rotation grid at
+//! all), flat by construction.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -11,7 +13,12 @@ use anyhow::Context;
 use clap::Args;
 use crossym::config::Config;
 use crossym::data::augmentation::{letter_augmenter, GroupGrid};
+use crossym::data::letters::JointTrajectory;
 use crossym::eval::plot::{curve_colour, write_curves_png, CurveFigure};
+use crossym::symmetry::compose::Condition;
+
+/// Scores a policy on a set of (demonstration, condition) pairs.
+type EvalSet<'a> = dyn for<'t> Fn(&[(&'t JointTrajectory, Condition)]) -> crossym::eval::Cell + 'a;
 
 /// Arguments of `crossym density`.
 #[derive(Debug, Args)]
@@ -28,6 +35,10 @@ pub struct DensityArgs {
     /// Override `[train] iterations` (each Δθ trains one policy).
     #[arg(long)]
     pub iterations: Option<usize>,
+    /// A canonicalised policy (`crossym train --equivariant`) evaluated on the same test
+    /// letters and drawn as one more curve (`train_step_deg` = `eq` in the CSV).
+    #[arg(long)]
+    pub equivariant: Option<PathBuf>,
     /// Output directory for `density.csv`, `density.md` and `density.png`.
     #[arg(long, default_value = "results/density")]
     pub out: PathBuf,
@@ -68,6 +79,36 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
         "| Δθ train (°) | trajectories | mean RMSE over θ | max RMSE over θ | diverged |\n|---|---|---|---|---|\n",
     );
     let mut curves = Vec::new();
+    // RMSE per test angle: (θ°, mean, count, diverged).
+    let per_angle = |policy: &EvalSet<'_>| {
+        angles
+            .iter()
+            .filter_map(|&theta| {
+                let set: Vec<_> = test
+                    .trajectories
+                    .iter()
+                    .filter(|t| (t.condition.theta - theta).abs() < 1e-9)
+                    .map(|t| (&t.traj, t.condition))
+                    .collect();
+                (!set.is_empty()).then(|| {
+                    let c = policy(&set);
+                    (theta.to_degrees(), c.mean, c.count, c.diverged)
+                })
+            })
+            .collect::<Vec<_>>()
+    };
+    let equivariant = match &a.equivariant {
+        Some(p) => {
+            let policy = crossym::pipeline::load_any_policy(&cfg, kin, p)?;
+            anyhow::ensure!(
+                policy.composition().is_some(),
+                "--equivariant {}: not a canonicalised policy (train it with `crossym train --equivariant`)",
+                p.display()
+            );
+            Some(policy)
+        }
+        None => None,
+    };
     for (si, &step) in a.steps.iter().enumerate() {
         let g = grid(step);
         g.validate()
@@ -100,30 +141,18 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             crossym::policy::train_with_features(&data, &tc, meta, features, |_, _| {})?;
         let mut curve = Vec::new();
         let (mut sum, mut max, mut div) = (0.0, 0.0f64, 0);
-        for &theta in &angles {
-            let set: Vec<_> = test
-                .trajectories
-                .iter()
-                .filter(|t| (t.condition.theta - theta).abs() < 1e-9)
-                .map(|t| (&t.traj, t.condition))
-                .collect();
-            if set.is_empty() {
-                continue;
-            }
-            let c = crossym::eval::evaluate(&policy, kin, &set, &cfg.eval);
+        for (theta, mean, count, diverged) in
+            per_angle(&|set| crossym::eval::evaluate(&policy, kin, set, &cfg.eval))
+        {
             csv.push_str(&format!(
-                "{step},{},{},{},{},{},{}\n",
-                theta.to_degrees(),
-                c.mean,
-                c.count,
-                c.diverged,
+                "{step},{theta},{mean},{count},{diverged},{},{}\n",
                 data.len(),
                 report.final_loss
             ));
-            curve.push((theta.to_degrees(), c.mean));
-            sum += c.mean;
-            max = max.max(c.mean);
-            div += c.diverged;
+            curve.push((theta, mean));
+            sum += mean;
+            max = max.max(mean);
+            div += diverged;
         }
         let c = curve_colour(si, a.steps.len());
         md.push_str(&format!(
@@ -143,6 +172,25 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             sum / curve.len().max(1) as f64
         );
         curves.push(curve);
+    }
+    let mut names: Vec<String> = a.steps.iter().map(|s| format!("Δθ = {s}°")).collect();
+    if let Some(policy) = &equivariant {
+        let rows = per_angle(&|set| crossym::eval::evaluate(policy, kin, set, &cfg.eval));
+        let n_train = demos.train.len();
+        for (theta, mean, count, diverged) in &rows {
+            csv.push_str(&format!(
+                "eq,{theta},{mean},{count},{diverged},{n_train},\n"
+            ));
+        }
+        let mean = rows.iter().map(|r| r.1).sum::<f64>() / rows.len().max(1) as f64;
+        let max = rows.iter().fold(0.0f64, |m, r| m.max(r.1));
+        let div: usize = rows.iter().map(|r| r.3).sum();
+        md.push_str(&format!(
+            "| π_eq, canonicalised, originals only (black) | {n_train} | {mean:.3} | {max:.3} | {div} |\n"
+        ));
+        println!("π_eq (canonicalised): mean RMSE over θ {mean:.3}, max {max:.3}");
+        curves.push(rows.iter().map(|r| (r.0, r.1)).collect());
+        names.push("π_eq (originals only)".into());
     }
     md.push_str(&format!(
         "\nFigure `density.png`: RMSE (task units, mean over the test letters; Euclidean with \
@@ -164,8 +212,9 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
         ),
         x_desc: "test rotation θ (°)".into(),
         y_desc: format!("RMSE, Euclidean, arms stacked ({})", cfg.eval.units),
-        names: a.steps.iter().map(|s| format!("Δθ = {s}°")).collect(),
+        names,
         categorical: false,
+        ramp: Some(a.steps.len()),
     };
     write_curves_png(&a.out.join("density.png"), &fig, &curves, 900, 460)
         .map_err(anyhow::Error::msg)?;

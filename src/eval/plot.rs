@@ -495,6 +495,9 @@ pub struct CurveFigure {
     /// Unordered curves (joints): distinct colours, no grid lines at the samples; otherwise
     /// an ordered ramp (dark blue → orange) with faint lines at the first curve's `x`.
     pub categorical: bool,
+    /// Ordered curves: how many are on the ramp; the rest (a reference) are drawn in
+    /// black. `None`: all of them.
+    pub ramp: Option<usize>,
 }
 
 /// Distinct colours of unordered curves (the ten of matplotlib's `tab10`).
@@ -585,10 +588,13 @@ fn draw_curves<DB: DrawingBackend>(
         }
     }
     for (i, c) in curves.iter().enumerate() {
+        let ramp = fig.ramp.unwrap_or(curves.len());
         let colour = if fig.categorical {
             CATEGORICAL[i % CATEGORICAL.len()]
+        } else if i < ramp {
+            curve_colour(i, ramp)
         } else {
-            curve_colour(i, curves.len())
+            BLACK
         };
         let series = chart
             .draw_series(LineSeries::new(

@@ -486,3 +486,63 @@ fn condition_that_becomes_infeasible_mid_motion_is_reported_and_braked() {
     }
     assert!(last < 1e-9, "stopped: {last}");
 }
+
+/// `crossym density --equivariant P` adds the canonicalised policy's curve: its RMSE is the
+/// same at every test rotation θ (to the Euler rollouts' 0.5 %), read back from the CSV —
+/// the augmented π_R's is not required to be; a plain policy is refused.
+#[test]
+fn density_curve_of_the_canonicalised_policy_is_flat() {
+    let dir = common::temp_dir("density-eq");
+    let config = common::path("config/letters.toml");
+    let out = common::crossym([
+        "density",
+        "--steps",
+        "90",
+        "--eval-step",
+        "45",
+        "--iterations",
+        "20",
+        "--config",
+    ])
+    .arg(&config)
+    .arg("--equivariant")
+    .arg(common::path("data/policies/pi_eq_planar.safetensors"))
+    .arg("--out")
+    .arg(&dir)
+    .output()
+    .unwrap();
+    assert!(
+        out.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.join("density.csv")).unwrap();
+    let eq: Vec<(f64, f64)> = csv
+        .lines()
+        .filter(|l| l.starts_with("eq,"))
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[1].parse().unwrap(), f[2].parse().unwrap())
+        })
+        .collect();
+    assert_eq!(eq.len(), 9, "θ = −180°, −135°, …, 180°: {csv}");
+    let at0 = eq.iter().find(|(t, _)| t.abs() < 1e-9).unwrap().1;
+    for (theta, rmse) in &eq {
+        assert!(
+            (rmse - at0).abs() <= 5e-3 * at0,
+            "θ = {theta}°: {rmse} vs {at0} at 0°"
+        );
+    }
+    assert!(dir.join("density.png").exists());
+    let plain = common::crossym(["density", "--steps", "90", "--iterations", "1", "--config"])
+        .arg(&config)
+        .arg("--equivariant")
+        .arg(common::path("data/policies/pi_mrt_planar.safetensors"))
+        .arg("--out")
+        .arg(dir.join("plain"))
+        .output()
+        .unwrap();
+    assert!(!plain.status.success());
+    assert!(String::from_utf8_lossy(&plain.stderr).contains("not a canonicalised policy"));
+}
