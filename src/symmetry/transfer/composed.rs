@@ -349,12 +349,7 @@ pub struct ComposedLift {
 /// Scratch for [`ComposedLift`] (allocates once, in [`ComposedLift::workspace`]).
 #[derive(Debug, Clone)]
 pub struct ComposedWorkspace {
-    field: LiftFieldScratch,
-    // Per factor (rotation, scaling), so each warm-starts from its own last step size.
-    pos: [FlowWorkspace; 2],
-    var: [FlowWorkspace; 2],
-    y0: Vec<f64>,
-    y1: Vec<f64>,
+    flows: FlowScratch,
     a: Vec<f64>,
     b: Vec<f64>,
     va: Vec<f64>,
@@ -365,6 +360,17 @@ pub struct ComposedWorkspace {
     h: Vec<f64>,
     h2: Vec<f64>,
     residual: f64,
+}
+
+/// What one lifted flow needs: the field's scratch, the integrators' workspaces (per
+/// factor, so each warm-starts from its own last step size) and the step count.
+#[derive(Debug, Clone)]
+struct FlowScratch {
+    field: LiftFieldScratch,
+    pos: [FlowWorkspace; 2],
+    var: [FlowWorkspace; 2],
+    y0: Vec<f64>,
+    y1: Vec<f64>,
     steps: usize,
 }
 
@@ -373,7 +379,7 @@ impl ComposedWorkspace {
     /// [`ComposedLift::act_with_differential`] pair: the cost of one canonicalised
     /// velocity is about 6 (DOPRI5) or 4 (RK4) lifted-field evaluations per step.
     pub fn steps(&self) -> usize {
-        self.steps
+        self.flows.steps
     }
 
     /// `|f(Φ_g⁻¹ q) − g⁻¹ f(q)|∞` of the last successful [`ComposedLift::inverse`] (task
@@ -425,11 +431,14 @@ impl ComposedLift {
     pub fn workspace(&self) -> ComposedWorkspace {
         let (n, m) = (self.kin.dof(), self.kin.task_dim());
         ComposedWorkspace {
-            field: LiftFieldScratch::new(&self.kin),
-            pos: [FlowWorkspace::new(n), FlowWorkspace::new(n)],
-            var: [FlowWorkspace::new(2 * n), FlowWorkspace::new(2 * n)],
-            y0: vec![0.0; 2 * n],
-            y1: vec![0.0; 2 * n],
+            flows: FlowScratch {
+                field: LiftFieldScratch::new(&self.kin),
+                pos: [FlowWorkspace::new(n), FlowWorkspace::new(n)],
+                var: [FlowWorkspace::new(2 * n), FlowWorkspace::new(2 * n)],
+                y0: vec![0.0; 2 * n],
+                y1: vec![0.0; 2 * n],
+                steps: 0,
+            },
             a: vec![0.0; n],
             b: vec![0.0; n],
             va: vec![0.0; n],
@@ -440,7 +449,6 @@ impl ComposedLift {
             h: vec![0.0; m],
             h2: vec![0.0; m],
             residual: 0.0,
-            steps: 0,
         }
     }
 
@@ -494,6 +502,35 @@ impl ComposedLift {
         ((t.abs() / max_step).ceil() as usize).max(1)
     }
 
+    /// Integrates `field` for time `t` with the spec's integrator (`error_dims`: the
+    /// components under step control), counting the steps.
+    #[allow(clippy::too_many_arguments)]
+    fn integrate(
+        &self,
+        factor: Factor,
+        field: &dyn VectorField,
+        t: f64,
+        y0: &[f64],
+        out: &mut [f64],
+        error_dims: usize,
+        fws: &mut FlowWorkspace,
+        steps: &mut usize,
+    ) -> Result<(), ComposedError> {
+        let status = match &self.spec.integrator {
+            LiftIntegrator::Adaptive { settings } => {
+                let settings = FlowSettings {
+                    error_dims: Some(error_dims),
+                    ..*settings
+                };
+                integrate(field, t, y0, out, &settings, fws)
+            }
+            LiftIntegrator::Rk4 { max_step } => {
+                integrate_rk4(field, t, Self::rk4_steps(*max_step, t), y0, out, fws)
+            }
+        };
+        Self::outcome(factor, status, t, steps)
+    }
+
     /// `out = Φ_factor(t, q)`: the lifted field's flow for time `t`.
     fn flow(
         &self,
@@ -501,54 +538,40 @@ impl ComposedLift {
         t: f64,
         q: &[f64],
         out: &mut [f64],
-        ws: &mut ComposedWorkspace,
+        fs: &mut FlowScratch,
     ) -> Result<(), ComposedError> {
-        let field = LiftedField::with_scratch(&self.kin, self.generator(factor), &ws.field);
-        let fws = &mut ws.pos[factor as usize];
-        let status = match &self.spec.integrator {
-            LiftIntegrator::Adaptive { settings } => integrate(&field, t, q, out, settings, fws),
-            LiftIntegrator::Rk4 { max_step } => {
-                integrate_rk4(&field, t, Self::rk4_steps(*max_step, t), q, out, fws)
-            }
-        };
-        Self::outcome(factor, status, t, &mut ws.steps)
+        let field = LiftedField::with_scratch(&self.kin, self.generator(factor), &fs.field);
+        let fws = &mut fs.pos[factor as usize];
+        self.integrate(factor, &field, t, q, out, q.len(), fws, &mut fs.steps)
     }
 
-    /// `(q_out, v_out) = (Φ_factor(t, q), dΦ_factor(t)|_q v)`.
+    /// `(q_out, v_out) = (Φ_factor(t, q), dΦ_factor(t)|_q v)`: positions and tangent
+    /// together (variational equation), step control on the positions.
     fn flow_with_tangent(
         &self,
         factor: Factor,
         t: f64,
         (q, v): (&[f64], &[f64]),
         (q_out, v_out): (&mut [f64], &mut [f64]),
-        ws: &mut ComposedWorkspace,
+        fs: &mut FlowScratch,
     ) -> Result<(), ComposedError> {
         let n = q.len();
-        let field = LiftedField::with_scratch(&self.kin, self.generator(factor), &ws.field);
-        let tangent = Tangent(&field);
-        ws.y0[..n].copy_from_slice(q);
-        ws.y0[n..].copy_from_slice(v);
-        let fws = &mut ws.var[factor as usize];
-        let status = match &self.spec.integrator {
-            LiftIntegrator::Adaptive { settings } => {
-                let settings = FlowSettings {
-                    error_dims: Some(n),
-                    ..*settings
-                };
-                integrate(&tangent, t, &ws.y0, &mut ws.y1, &settings, fws)
-            }
-            LiftIntegrator::Rk4 { max_step } => integrate_rk4(
-                &tangent,
-                t,
-                Self::rk4_steps(*max_step, t),
-                &ws.y0,
-                &mut ws.y1,
-                fws,
-            ),
-        };
-        Self::outcome(factor, status, t, &mut ws.steps)?;
-        q_out.copy_from_slice(&ws.y1[..n]);
-        v_out.copy_from_slice(&ws.y1[n..]);
+        let field = LiftedField::with_scratch(&self.kin, self.generator(factor), &fs.field);
+        fs.y0[..n].copy_from_slice(q);
+        fs.y0[n..].copy_from_slice(v);
+        let fws = &mut fs.var[factor as usize];
+        self.integrate(
+            factor,
+            &Tangent(&field),
+            t,
+            &fs.y0,
+            &mut fs.y1,
+            n,
+            fws,
+            &mut fs.steps,
+        )?;
+        q_out.copy_from_slice(&fs.y1[..n]);
+        v_out.copy_from_slice(&fs.y1[n..]);
         Ok(())
     }
 
@@ -564,31 +587,24 @@ impl ComposedLift {
         ws: &mut ComposedWorkspace,
     ) -> Result<(), ComposedError> {
         self.check(s)?;
-        ws.steps = 0;
-        let mut a = std::mem::take(&mut ws.a);
-        let mut b = std::mem::take(&mut ws.b);
-        let result = (|| {
-            if s.reflection == -1 {
-                self.reflection_inv.apply(q, &mut a);
-            } else {
-                a.copy_from_slice(q);
-            }
-            let theta = flow_angle(s.theta);
-            if theta != 0.0 {
-                self.flow(Factor::Rotation, -theta, &a, &mut b, ws)?;
-            } else {
-                b.copy_from_slice(&a);
-            }
-            if s.scale != 1.0 {
-                self.flow(Factor::Scaling, -s.scale.ln(), &b, q_out, ws)
-            } else {
-                q_out.copy_from_slice(&b);
-                Ok(())
-            }
-        })();
-        ws.a = a;
-        ws.b = b;
-        result?;
+        let ComposedWorkspace { flows, a, b, .. } = ws;
+        flows.steps = 0;
+        if s.reflection == -1 {
+            self.reflection_inv.apply(q, a);
+        } else {
+            a.copy_from_slice(q);
+        }
+        let theta = flow_angle(s.theta);
+        if theta != 0.0 {
+            self.flow(Factor::Rotation, -theta, a, b, flows)?;
+        } else {
+            b.copy_from_slice(a);
+        }
+        if s.scale != 1.0 {
+            self.flow(Factor::Scaling, -s.scale.ln(), b, q_out, flows)?;
+        } else {
+            q_out.copy_from_slice(b);
+        }
         // f(q_out) against g⁻¹ f(q).
         self.kin.forward(q, &mut ws.kws);
         ws.x.copy_from_slice(ws.kws.x.as_slice());
@@ -620,42 +636,35 @@ impl ComposedLift {
         ws: &mut ComposedWorkspace,
     ) -> Result<(), ComposedError> {
         self.check(s)?;
-        let (mut a, mut b) = (std::mem::take(&mut ws.a), std::mem::take(&mut ws.b));
-        let (mut va, mut vb) = (std::mem::take(&mut ws.va), std::mem::take(&mut ws.vb));
-        let result = (|| {
-            if s.scale != 1.0 {
-                self.flow_with_tangent(
-                    Factor::Scaling,
-                    s.scale.ln(),
-                    (q, v),
-                    (&mut a, &mut va),
-                    ws,
-                )?;
-            } else {
-                a.copy_from_slice(q);
-                va.copy_from_slice(v);
-            }
-            let theta = flow_angle(s.theta);
-            if theta != 0.0 {
-                self.flow_with_tangent(Factor::Rotation, theta, (&a, &va), (&mut b, &mut vb), ws)?;
-            } else {
-                b.copy_from_slice(&a);
-                vb.copy_from_slice(&va);
-            }
-            if s.reflection == -1 {
-                self.reflection.apply(&b, q_out);
-                self.reflection.apply(&vb, v_out);
-            } else {
-                q_out.copy_from_slice(&b);
-                v_out.copy_from_slice(&vb);
-            }
-            Ok(())
-        })();
-        ws.a = a;
-        ws.b = b;
-        ws.va = va;
-        ws.vb = vb;
-        result
+        let ComposedWorkspace {
+            flows,
+            a,
+            b,
+            va,
+            vb,
+            ..
+        } = ws;
+        if s.scale != 1.0 {
+            self.flow_with_tangent(Factor::Scaling, s.scale.ln(), (q, v), (a, va), flows)?;
+        } else {
+            a.copy_from_slice(q);
+            va.copy_from_slice(v);
+        }
+        let theta = flow_angle(s.theta);
+        if theta != 0.0 {
+            self.flow_with_tangent(Factor::Rotation, theta, (a, va), (b, vb), flows)?;
+        } else {
+            b.copy_from_slice(a);
+            vb.copy_from_slice(va);
+        }
+        if s.reflection == -1 {
+            self.reflection.apply(b, q_out);
+            self.reflection.apply(vb, v_out);
+        } else {
+            q_out.copy_from_slice(b);
+            v_out.copy_from_slice(vb);
+        }
+        Ok(())
     }
 }
 

@@ -136,31 +136,23 @@ impl LiftScratch {
 impl<'a, F: VectorField> LiftedField<'a, F> {
     /// Lifts `task` (a field on `X`, `task.dim() == kin.task_dim()`) through `kin`.
     pub fn new(kin: &'a Kinematics, task: F) -> Self {
-        assert_eq!(
-            task.dim(),
-            kin.task_dim(),
-            "task field dimension differs from dim X"
-        );
-        Self {
-            kin,
-            task,
-            scratch: ScratchCell::Owned(Box::new(RefCell::new(LiftScratch::new(kin)))),
-        }
+        let scratch = ScratchCell::Owned(Box::new(RefCell::new(LiftScratch::new(kin))));
+        Self::build(kin, task, scratch)
     }
 
     /// Lifts `task` through `kin` using the caller's `scratch` (sized for `kin`): builds
     /// the field without allocating.
     pub fn with_scratch(kin: &'a Kinematics, task: F, scratch: &'a LiftFieldScratch) -> Self {
-        debug_assert_eq!(
+        Self::build(kin, task, ScratchCell::Borrowed(&scratch.0))
+    }
+
+    fn build(kin: &'a Kinematics, task: F, scratch: ScratchCell<'a>) -> Self {
+        assert_eq!(
             task.dim(),
             kin.task_dim(),
             "task field dimension differs from dim X"
         );
-        Self {
-            kin,
-            task,
-            scratch: ScratchCell::Borrowed(&scratch.0),
-        }
+        Self { kin, task, scratch }
     }
 
     /// The task-space field being lifted.
