@@ -8,7 +8,8 @@
 //!   run a canonicalised policy `dΦ_g π₀(Φ_g⁻¹ q)` (issue 18) under the off-grid condition
 //!   θ = 17°, λ = 0.73, σ = −1, flows by adaptive Dormand–Prince or fixed-step RK4
 //!   (`CROSSYM_TICK_ONLY=eq` runs only those).
-//!   A second pass times 20 000 single ticks and prints median and p99.
+//!   A second pass times 20 000 single ticks and prints median and p99, and how many of
+//!   them the safety QP filtered (Clarabel dominates such a tick).
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
 //!   second DDS participant publishing JointState and timing the arrival of the command the
 //!   node computes from it (median, p99 over 2000 round trips). DDS: run inside
@@ -27,7 +28,7 @@ use crossym::config::Config;
 use crossym::policy::{Policy, TaskFeatures};
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
 use crossym::ros::{msg, NodeConfig, NodeCore, StatusCode, Trigger};
-use crossym::safety::SafetySettings;
+use crossym::safety::{SafetySettings, SafetyStatus};
 use crossym::symmetry::compose::Condition;
 use crossym::symmetry::transfer::composed::LiftIntegrator;
 
@@ -153,6 +154,9 @@ fn bench_tick(c: &mut Criterion) {
         };
         let mut k = 0usize;
         let mut infeasible = 0usize;
+        // Ticks whose policy output the filter changed (the QP ran): what the tick costs
+        // depends on it (Clarabel is most of a filtered tick).
+        let mut filtered = 0usize;
         let mut step = |core: &mut NodeCore| {
             m.position.copy_from_slice(&path[k % path.len()]);
             let now = k as f64 * 0.01;
@@ -161,7 +165,7 @@ fn bench_tick(c: &mut Criterion) {
             let r = core.tick(now, &mut cmd);
             infeasible += usize::from(r.code == StatusCode::ConditionInfeasible);
             k += 1;
-            black_box(r);
+            black_box(r).safety != Some(SafetyStatus::Passthrough)
         };
         let label = format!("{robot}_{}dof{suffix}", core.joint_names().len());
         g.bench_function(&label, |b| b.iter(|| step(&mut core)));
@@ -169,13 +173,15 @@ fn bench_tick(c: &mut Criterion) {
         let mut t: Vec<f64> = (0..20_000)
             .map(|_| {
                 let t0 = Instant::now();
-                step(&mut core);
-                t0.elapsed().as_secs_f64() * 1e6
+                let f = step(&mut core);
+                let t = t0.elapsed().as_secs_f64() * 1e6;
+                filtered += usize::from(f);
+                t
             })
             .collect();
         t.sort_by(f64::total_cmp);
         println!(
-            "tick/{label}: median {:.2} us, p99 {:.2} us, max {:.2} us over {} ticks ({infeasible} infeasible)",
+            "tick/{label}: median {:.2} us, p99 {:.2} us, max {:.2} us over {} ticks ({infeasible} infeasible, {filtered} filtered by the QP)",
             t[t.len() / 2],
             t[t.len() * 99 / 100],
             t[t.len() - 1],

@@ -146,6 +146,63 @@ impl OneParamAction {
         }
     }
 
+    /// `out = A u` (the generator's linear part: its differential, on a task velocity).
+    #[inline]
+    fn linear_part(&self, u: &[f64], out: &mut [f64]) {
+        let m = self.offset.len();
+        for (i, o) in out.iter_mut().enumerate().take(m) {
+            let row = &self.linear[i * m..(i + 1) * m];
+            *o = row.iter().zip(u).map(|(a, v)| a * v).sum::<f64>();
+        }
+    }
+
+    /// `u ← exp(t A) u` in place: the differential of `x ↦ exp(t H) x` (the same for
+    /// every `x`, the action being affine) on a task velocity `u`; scratch as [`Self::apply`].
+    ///
+    /// ```
+    /// use crossym::symmetry::affine::{OneParamAction, OneParamKind};
+    ///
+    /// // Rotation about (1, 0): H x = (−(y − 0), x − 1).
+    /// let rot = OneParamAction {
+    ///     name: "R".into(),
+    ///     kind: OneParamKind::Rotation,
+    ///     linear: vec![0.0, -1.0, 1.0, 0.0],
+    ///     offset: vec![0.0, -1.0],
+    /// };
+    /// let (mut h, mut h2) = ([0.0; 2], [0.0; 2]);
+    /// // exp(tA) u = exp(tH)(x + u) − exp(tH) x.
+    /// let (x, u, t) = ([0.3, -0.2], [0.5, 0.25], 0.7);
+    /// let mut a = [x[0] + u[0], x[1] + u[1]];
+    /// let mut b = x;
+    /// rot.apply(t, &mut a, &mut h, &mut h2);
+    /// rot.apply(t, &mut b, &mut h, &mut h2);
+    /// let mut v = u;
+    /// rot.apply_linear(t, &mut v, &mut h, &mut h2);
+    /// assert!((v[0] - (a[0] - b[0])).abs() < 1e-15 && (v[1] - (a[1] - b[1])).abs() < 1e-15);
+    /// ```
+    #[inline]
+    pub fn apply_linear(&self, t: f64, u: &mut [f64], h: &mut [f64], h2: &mut [f64]) {
+        self.linear_part(u, h);
+        match self.kind {
+            // A = 0 for a translation: exp(tA) = I.
+            OneParamKind::Translation => {}
+            OneParamKind::Scaling => {
+                let c = t.exp_m1();
+                for (ui, hi) in u.iter_mut().zip(h.iter()) {
+                    *ui += c * hi;
+                }
+            }
+            OneParamKind::Rotation => {
+                self.linear_part(h, h2);
+                let (s, c) = t.sin_cos();
+                let c1 = 1.0 - c;
+                for i in 0..u.len() {
+                    u[i] += s * h[i] + c1 * h2[i];
+                }
+            }
+        }
+    }
+
     /// `x ← exp(t H) x` in place, with two scratch vectors of length `m`.
     #[inline]
     pub fn apply(&self, t: f64, x: &mut [f64], h: &mut [f64], h2: &mut [f64]) {
@@ -344,6 +401,34 @@ impl CanonicalMap {
             ));
         }
         Ok(())
+    }
+
+    /// `out = Dg(s) u = ρ_X(σ) exp(θ A_R) exp(ln λ A_S) u`: the differential of `g(s)` (eq. 23's
+    /// order; the same at every point, `g` being affine) on a task velocity `u` (m/s);
+    /// `h`, `h2` are scratch vectors of length `m`.
+    #[inline]
+    pub fn apply_linear(
+        &self,
+        s: &Condition,
+        u: &[f64],
+        out: &mut [f64],
+        h: &mut [f64],
+        h2: &mut [f64],
+    ) {
+        out.copy_from_slice(u);
+        if let Some(sc) = &self.scaling {
+            sc.apply_linear(s.scale.ln(), out, h, h2);
+        }
+        if let Some(r) = &self.rotation {
+            r.apply_linear(s.theta, out, h, h2);
+        }
+        if let (Some(r), true) = (&self.reflection, s.reflection == -1) {
+            // (ρ y)_i = s_i y_{π(i)}, through `h`.
+            h.copy_from_slice(out);
+            for i in 0..self.dim {
+                out[i] = r.signs[i] * h[r.perm[i]];
+            }
+        }
     }
 
     /// `out = g(s)⁻¹ x` (m); `h`, `h2` are scratch vectors of length `m`.

@@ -181,6 +181,97 @@ fn closed_loop_under_any_feasible_condition_is_conjugate_to_the_identity_one() {
     }
 }
 
+/// The push-forward of the node's integrator (DOPRI5 at rtol 1e-5): its task component is
+/// `Dg J(q) v` to rounding — checked against the task-space action on points,
+/// `Dg u = g·(x + u) − g·x` (`g` affine), not the lift's own differential — and the whole
+/// vector is within 5e-4 (relative) of a push-forward by flows at rtol 1e-11 (without the
+/// task-space correction: 1.4e-3 on this path).
+#[test]
+fn push_forward_task_component_is_exact_and_the_rest_close_to_the_tight_flow() {
+    let (cfg, robot, demos) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries).unwrap();
+    let lift = |integrator| {
+        ComposedLift::from_symmetries(kin, &built, &cfg.composition.order, integrator).unwrap()
+    };
+    let node = lift(crossym::pipeline::canonical_integrator());
+    let tight = lift(LiftIntegrator::Adaptive {
+        settings: FlowSettings {
+            rtol: 1e-11,
+            atol: 1e-13,
+            ..FlowSettings::default()
+        },
+    });
+    let base = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let mut pws = base.workspace();
+    let (mut ws, mut wt, mut kws) = (node.workspace(), tight.workspace(), kin.workspace());
+    let n = kin.dof();
+    let (mut q, mut qg, mut qt, mut w, mut w_ref, mut v) = (
+        vec![0.0; n],
+        vec![0.0; n],
+        vec![0.0; n],
+        vec![0.0; n],
+        vec![0.0; n],
+        vec![0.0; n],
+    );
+    let jv = |kws: &mut crossym::kinematics::KinematicsWorkspace, q: &[f64], v: &[f64]| {
+        kin.jacobian(q, kws);
+        (&kws.jac * nalgebra::DVector::from_column_slice(v))
+            .as_slice()
+            .to_vec()
+    };
+    let (mut worst_task, mut worst_rel) = (0.0f64, 0.0f64);
+    // Along a smooth path of joint states around the demonstration's start (10 ms apart,
+    // as the node sees them: the integrator warm-starts from the previous call's step).
+    let q_start = demos.demos[0].q(0);
+    let path: Vec<Vec<f64>> = (0..120)
+        .map(|k| {
+            (0..n)
+                .map(|j| q_start[j] + 0.05 * (0.0315 * k as f64 + j as f64).sin())
+                .collect()
+        })
+        .collect();
+    for s in &CONDITIONS {
+        for (k, q_path) in path.iter().enumerate() {
+            // From the path's state, or, where the inverse is feasible, from its canonical
+            // point Φ_g⁻¹(q_path) (as a canonicalised policy pushes π₀ forward).
+            let canonical = tight.inverse(s, q_path, &mut q, &mut wt).is_ok();
+            let q = if canonical { q.as_slice() } else { q_path };
+            base.velocity(q, &Condition::IDENTITY, &mut v, &mut pws);
+            node.act_with_differential(s, q, &v, &mut qg, &mut w, &mut ws)
+                .unwrap();
+            tight
+                .act_with_differential(s, q, &v, &mut qt, &mut w_ref, &mut wt)
+                .unwrap();
+            // Dg u on points: g·(x + u) − g·x.
+            let x = kin.forward(q, &mut kws).as_slice().to_vec();
+            let u = jv(&mut kws, q, &v);
+            let xu: Vec<f64> = x.iter().zip(&u).map(|(a, b)| a + b).collect();
+            let (gxu, gx) = (task_action(&built, s, &xu), task_action(&built, s, &x));
+            let dg_u: Vec<f64> = gxu.iter().zip(&gx).map(|(a, b)| a - b).collect();
+            let jw = jv(&mut kws, &qg, &w);
+            let task = common::dist(&jw, &dg_u) / common::dist(&dg_u, &vec![0.0; u.len()]);
+            let scale = w_ref.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+            let rel = w
+                .iter()
+                .zip(&w_ref)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+                / scale;
+            if k % 20 == 0 {
+                println!(
+                    "{s:?} state {k} (canonical {canonical}): task defect {task:.1e}, \
+                     push-forward error {rel:.1e}"
+                );
+            }
+            worst_task = worst_task.max(task);
+            worst_rel = worst_rel.max(rel);
+        }
+    }
+    println!("worst: task defect {worst_task:.1e}, push-forward error {worst_rel:.1e}");
+    assert!(worst_task < 1e-9, "task component off by {worst_task:.2e}");
+    assert!(worst_rel < 5e-4, "push-forward off by {worst_rel:.2e}");
+}
+
 /// Evaluated like any policy (`eval::score`, Euler at the demonstrations' 0.01 s), the
 /// canonicalised policy's error on a transformed test demonstration is its error on the
 /// original one times λ — rotations and the reflection are isometries of the task space,

@@ -10,7 +10,10 @@
 //! map* exactly (up to the integrator's error) whether or not the lifted action is a
 //! group action (with `M = I` it is not: the vertical bracket and the 2π drift). The
 //! push-forward transports the tangent `v` along the forward flows (variational equation
-//! `δ̇ = dX_Q|_γ δ` with the lifted field's closed-form derivative), no `n × n` matrix.
+//! `δ̇ = dX_Q|_γ δ` with the lifted field's closed-form derivative), no `n × n` matrix;
+//! its task component is then made exact, `J(Φ_g q) dΦ_g v = Dg J(q) v` (eq. 15 through
+//! the composition), by the horizontal lift of the defect, so the integrator's error is
+//! left in the vertical component only.
 //! `θ` outside `[−π, π]` is wrapped into `(−π, π]` first ([`flow_angle`]), so `θ` and
 //! `θ + 2πk` give the same map (`±π` stay apart, as in the augmentation grid).
 //!
@@ -25,9 +28,10 @@
 //! allocate nothing (a caller-owned [`ComposedWorkspace`]; failures are fixed-size
 //! [`ComposedError`]s), which puts them on the control tick.
 
+use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use crate::kinematics::{Kinematics, KinematicsWorkspace};
+use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
 use crate::symmetry::affine::{
     max_diff, CanonicalMap, OneParamAction, OneParamKind, StoredPermutation,
 };
@@ -626,6 +630,14 @@ impl ComposedLift {
     }
 
     /// `q_out = Φ_g(q)` and `v_out = dΦ_g|_q v` (rad or m, and per second); allocation-free.
+    ///
+    /// The lifted flows are `f`-related to the task action (eq. 15), so `f ∘ Φ_g = g ∘ f`
+    /// and, differentiating, `J(Φ_g q) dΦ_g|_q v = Dg J(q) v`: the task component of the
+    /// push-forward is known in closed form (`g` is affine). The tangent carried along the
+    /// flows (variational equation) is therefore corrected by the horizontal lift of its
+    /// task-space defect, `v_out += J⁺(q_out) (Dg J(q) v − J(q_out) v_out)`, which leaves
+    /// `J(q_out) v_out = Dg J(q) v` to rounding and the integrator's error in the vertical
+    /// component only (where the flows are exact the defect is 0).
     pub fn act_with_differential(
         &self,
         s: &Condition,
@@ -636,6 +648,12 @@ impl ComposedLift {
         ws: &mut ComposedWorkspace,
     ) -> Result<(), ComposedError> {
         self.check(s)?;
+        // The task velocity to reach, Dg J(q) v (into `xg`).
+        self.kin.jacobian(q, &mut ws.kws);
+        mat_vec(&ws.kws.jac, v, &mut ws.x);
+        self.spec
+            .task
+            .apply_linear(s, &ws.x, &mut ws.xg, &mut ws.h, &mut ws.h2);
         let ComposedWorkspace {
             flows,
             a,
@@ -664,7 +682,32 @@ impl ComposedLift {
             q_out.copy_from_slice(b);
             v_out.copy_from_slice(vb);
         }
+        // Task-space defect at the end point and its horizontal lift. The flow's last
+        // field evaluation was regular at `b` (hence at `q_out = ρ b`); a non-regular factor
+        // here (not expected) leaves the uncorrected tangent.
+        self.kin.jacobian(q_out, &mut ws.kws);
+        mat_vec(&ws.kws.jac, v_out, &mut ws.x);
+        for (d, t) in ws.x.iter_mut().zip(&ws.xg) {
+            *d = t - *d;
+        }
+        if self.kin.factor(&mut ws.kws).status == PinvStatus::Regular {
+            self.kin.solve(&mut ws.kws, &ws.x, &mut ws.va);
+            for (o, d) in v_out.iter_mut().zip(&ws.va) {
+                *o += d;
+            }
+        }
         Ok(())
+    }
+}
+
+/// `out = A v` for a column-major `m × n` matrix (allocation-free).
+fn mat_vec(a: &DMatrix<f64>, v: &[f64], out: &mut [f64]) {
+    let m = a.nrows();
+    out.fill(0.0);
+    for (col, &vc) in a.as_slice().chunks_exact(m).zip(v) {
+        for (o, x) in out.iter_mut().zip(col) {
+            *o += x * vc;
+        }
     }
 }
 
