@@ -82,7 +82,8 @@ enum Command {
         #[arg(long = "policy")]
         policies: Vec<String>,
         /// Directory for `table2.md` and `table2.csv` (`table2_paper.*` with `--protocol
-        /// paper`).
+        /// paper`), and `fit.md` / `fit.csv` (held-out protocol: every training and test
+        /// demonstration rolled out from its own start, identity condition).
         #[arg(long, default_value = "results")]
         out: PathBuf,
         /// `heldout`: the test demonstrations under the test grid, whole trajectories
@@ -861,5 +862,10 @@ fn eval(
         files.conditions.display(),
         files.figures.len()
     );
+    println!("\nFit to the demonstrations (identity condition, RMSE per coordinate):");
+    let fit = crossym::pipeline::fit::write_fit(&cfg, kin, &p.demos, &loaded, out, |row| {
+        println!("{row}")
+    })?;
+    println!("wrote {} and {}", fit.markdown.display(), fit.csv.display());
     Ok(ExitCode::SUCCESS)
 }

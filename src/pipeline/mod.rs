@@ -23,6 +23,7 @@ use crate::symmetry::check::BuiltSymmetry;
 use crate::symmetry::transfer::composed::{ComposedSpec, LiftIntegrator};
 
 pub mod figures;
+pub mod fit;
 pub mod paper;
 pub mod table2;
 

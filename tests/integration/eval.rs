@@ -508,3 +508,67 @@ fn paper_protocol_table_pools_train_and_test_and_matches_a_recomputation() {
     );
     assert!((reported_std - std).abs() < 1e-9, "{reported_std} vs {std}");
 }
+
+/// `pipeline::fit::write_fit`: a row per training and test demonstration, each value the
+/// RMSE per coordinate of the policy rolled out from that demonstration's first
+/// configuration under the identity condition — recomputed here from a plain Euler loop
+/// over the demonstration's samples.
+#[test]
+fn fit_table_scores_every_demonstration_against_itself() {
+    let (cfg, robot, demos) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let policy = Policy::load(common::path("data/policies/pi_mrt_planar.safetensors")).unwrap();
+    let dir = common::temp_dir("fit");
+    let mut rows = Vec::new();
+    let files = crossym::pipeline::fit::write_fit(
+        &cfg,
+        kin,
+        &demos,
+        &[("pi_MRT".to_string(), policy.clone())],
+        &dir,
+        |r| rows.push(r.to_string()),
+    )
+    .unwrap();
+    assert_eq!(rows.len(), 1);
+    let md = std::fs::read_to_string(&files.markdown).unwrap();
+    assert!(md.starts_with("| Policy | train #1 |"), "{md}");
+    let csv = std::fs::read_to_string(&files.csv).unwrap();
+    let lines: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let picked: Vec<(String, usize)> = demos
+        .train
+        .iter()
+        .map(|&d| ("train".to_string(), d))
+        .chain(demos.test.iter().map(|&d| ("test".to_string(), d)))
+        .collect();
+    assert_eq!(lines.len(), picked.len());
+    for (line, (split, demo)) in lines.iter().zip(&picked) {
+        assert_eq!((line[0], line[1]), ("pi_MRT", split.as_str()));
+        assert_eq!(line[2].parse::<usize>().unwrap(), *demo);
+        // Independent recomputation: Euler at the demonstration's step, sample by sample.
+        let t = &demos.demos[demo - 1];
+        let mut q = t.q(0).to_vec();
+        let (mut v, mut ws, mut kws) = (vec![0.0; 8], policy.workspace(), kin.workspace());
+        let mut sum = 0.0;
+        for k in 0..t.len() {
+            let x = kin.forward(&q, &mut kws);
+            for i in 0..4 {
+                sum += (x[i] - t.x(k)[i]).powi(2);
+            }
+            policy.velocity(&q, &Condition::IDENTITY, &mut v, &mut ws);
+            for j in 0..8 {
+                q[j] += t.dt * v[j];
+            }
+        }
+        let rmse = (sum / (t.len() * 4) as f64).sqrt();
+        let reported: f64 = line[4].parse().unwrap();
+        assert!(
+            (reported - rmse).abs() < 1e-9,
+            "demo {demo}: {reported} vs {rmse}"
+        );
+        assert_eq!(line[5], "false");
+    }
+}
