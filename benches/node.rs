@@ -2,12 +2,14 @@
 //!
 //! - `tick/*` (criterion): `NodeCore::load_inputs` + `NodeCore::tick` (FK + Jacobian, MLP
 //!   forward, safety QP, command) along a path of joint states, for the planar dual arm with
-//!   the shipped policy (canonical task features `x̃ = g(s)⁻¹ f(q)`) and RB-Y1's 14 arm joints
-//!   with a synthetic policy of the same shape; `*-no-xt` ticks run a synthetic policy of the
-//!   same widths without task features, the reference for what `x̃` costs; `*-eq-*` ticks
-//!   run a canonicalised policy `dΦ_g π₀(Φ_g⁻¹ q)` (issue 18) under the off-grid condition
-//!   θ = 17°, λ = 0.73, σ = −1, flows by adaptive Dormand–Prince or fixed-step RK4
-//!   (`CROSSYM_TICK_ONLY=eq` runs only those).
+//!   the shipped policy (canonical task features `x̃ = g(s)⁻¹ f(q)`), RB-Y1's 14 arm joints
+//!   with a synthetic policy of the same shape (`rby1`, around the reference posture: its
+//!   output leaves the bounds, so every tick runs the QP) and with the shipped RB-Y1
+//!   letter policy (`rby1-letters`, around the first letter's start); `*-no-xt` ticks run a
+//!   synthetic policy of the same widths without task features, the reference for what `x̃`
+//!   costs; `*-eq-*` ticks run the shipped policy canonicalised, `dΦ_g π₀(Φ_g⁻¹ q)` (issue
+//!   18), under the off-grid condition θ = 17°, λ = 0.73, σ = −1, flows by adaptive
+//!   Dormand–Prince or fixed-step RK4 (`CROSSYM_TICK_ONLY=eq` runs only those).
 //!   A second pass times 20 000 single ticks and prints median and p99, and how many of
 //!   them the safety QP filtered (Clarabel dominates such a tick).
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
@@ -39,7 +41,7 @@ fn root() -> PathBuf {
 /// The policy of a tick variant.
 #[derive(Clone, Copy, PartialEq)]
 enum Kind {
-    /// Canonical task features `x̃` (the shipped planar policy; synthetic on RB-Y1).
+    /// Canonical task features `x̃` (the shipped policy; synthetic on `rby1`).
     Features,
     /// A synthetic policy of the same widths without task features.
     NoFeatures,
@@ -58,10 +60,12 @@ const OFF_GRID: Condition = Condition {
 /// The node core and a path of joint states for one robot and policy kind.
 fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     let features = kind != Kind::NoFeatures;
-    let (cfg_name, synthetic) = match (robot, kind) {
-        ("planar", _) => ("letters.toml", !features),
-        (_, Kind::Canonicalised(_)) => ("rby1-letters.toml", true),
-        _ => ("rby1.toml", true),
+    let around_demo = matches!(kind, Kind::Canonicalised(_)) || robot == "rby1-letters";
+    // Config, synthetic policy or not, and the shipped policy otherwise.
+    let (cfg_name, synthetic, shipped) = match robot {
+        "planar" => ("letters.toml", !features, "pi_mrt_planar"),
+        "rby1-letters" => ("rby1-letters.toml", false, "pi_mrt_rby1_letters"),
+        _ => ("rby1.toml", true, ""),
     };
     if robot != "planar" && !root().join("../shared/robots/rby1a/model.urdf").exists() {
         eprintln!("SKIP {robot}: ../shared/robots/rby1a/model.urdf absent");
@@ -78,7 +82,7 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
         });
         Policy::synthetic_with(n, kin.joint_names().to_vec(), &[128, 128, 128], 1, task)
     } else {
-        Policy::load(root().join("data/policies/pi_mrt_planar.safetensors")).unwrap()
+        Policy::load(root().join(format!("data/policies/{shipped}.safetensors"))).unwrap()
     };
     let mut node_cfg = cfg.node.clone().unwrap_or_default();
     if let Kind::Canonicalised(integrator) = kind {
@@ -86,9 +90,9 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
             Some(crossym::pipeline::composition(&cfg, &kin, integrator).unwrap());
         node_cfg.default_condition = OFF_GRID;
     }
-    // Canonicalised: around the first demonstration's start (the condition is feasible
-    // there); otherwise around the reference posture.
-    let q0 = if matches!(kind, Kind::Canonicalised(_)) {
+    // Canonicalised and RB-Y1's letters: around the first demonstration's start (the
+    // condition is feasible there); otherwise around the reference posture.
+    let q0 = if around_demo {
         cfg.load_demonstrations(&kin).unwrap().demos[0]
             .q(0)
             .to_vec()
@@ -99,11 +103,7 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
             .unwrap_or_else(|| vec![0.0; n])
     };
     // A smooth closed path around that posture (1000 states, 10 ms apart).
-    let amplitude = if matches!(kind, Kind::Canonicalised(_)) {
-        0.05
-    } else {
-        0.1
-    };
+    let amplitude = if around_demo { 0.05 } else { 0.1 };
     let path = (0..1000)
         .map(|k| {
             (0..n)
@@ -133,8 +133,13 @@ fn bench_tick(c: &mut Criterion) {
         ("planar", Kind::Canonicalised(rk4), "-eq-rk4"),
         ("rby1", Kind::Features, ""),
         ("rby1", Kind::NoFeatures, "-no-xt"),
-        ("rby1", Kind::Canonicalised(adaptive), "-eq-adaptive"),
-        ("rby1", Kind::Canonicalised(rk4), "-eq-rk4"),
+        ("rby1-letters", Kind::Features, ""),
+        (
+            "rby1-letters",
+            Kind::Canonicalised(adaptive),
+            "-eq-adaptive",
+        ),
+        ("rby1-letters", Kind::Canonicalised(rk4), "-eq-rk4"),
     ] {
         if only
             .as_deref()
