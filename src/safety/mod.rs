@@ -4,8 +4,10 @@
 //!   time a command can act (state age, actuation latency, one period, braking).
 //! - [`history`]: the commands published so far, and which ones the robot may still run.
 //! - [`filter`]: the QP `min (x − v)ᵀW(x − v)` under those bounds and an optional
-//!   end-effector distance barrier, solved with Clarabel set up once.
+//!   end-effector distance barrier, solved by [`active_set`] (a dense primal active-set
+//!   method, checked) or, where it declines, by Clarabel set up once.
 
+pub mod active_set;
 pub mod bounds;
 pub mod filter;
 pub mod history;

@@ -552,7 +552,11 @@ fn condition_that_becomes_infeasible_mid_motion_is_reported_and_braked() {
     })
     .expect("feasible at the start");
     let r = core.tick(0.0, &mut cmd);
-    assert_eq!(r.code, StatusCode::NoWarning);
+    assert!(
+        matches!(r.code, StatusCode::NoWarning | StatusCode::JointBound),
+        "{:?}",
+        r.code
+    );
     assert!(cmd.velocities.iter().any(|v| *v != 0.0));
     // The robot is now where the condition's flows fail.
     for k in 1..=5 {

@@ -595,7 +595,13 @@ fn conditions_outside_the_policys_training_are_rejected_unless_allowed() {
     open.on_joint_state(&joint_state(&open, &Q0, 0.0), 0.0)
         .unwrap();
     open.on_condition(&cond(0.3, 1.2, 1)).unwrap();
-    assert_eq!(open.tick(0.0, &mut cmd).code, StatusCode::NoWarning);
+    // Accepted: the policy's output is commanded (from rest the acceleration bound may
+    // shape it: JointBound).
+    let code = open.tick(0.0, &mut cmd).code;
+    assert!(
+        matches!(code, StatusCode::NoWarning | StatusCode::JointBound),
+        "{code:?}"
+    );
     assert_safe(&open, &cmd);
 
     // A default condition outside the domain is a setup error naming the setting.
@@ -832,9 +838,20 @@ fn a_nonfinite_policy_output_is_reported_and_never_published() {
         let code = core.status().code;
         let m = core.status().to_msg(Default::default(), core.joint_names());
         assert_eq!(m.code, code.value());
-        // An output so large that the QP fails: the clamp is commanded, SafetyFallback.
+        // A huge output: the QP still solves it (every joint on a bound).
         core.set_policy_override(Some(Box::new(|_, _, v| v.fill(-1e300))));
         let t = 1.0;
+        core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
+        let r = core.tick(t, &mut cmd);
+        assert_eq!(r.code, StatusCode::JointBound, "{mode:?}");
+        assert!(cmd.data().iter().all(|x| x.is_finite()), "{:?}", cmd.data());
+        for (v, l) in cmd.velocities.iter().zip(core.limits()) {
+            assert!(v.abs() <= l.velocity);
+        }
+        // An output so large that `W v` overflows: both solvers fail, the clamp is
+        // commanded, SafetyFallback.
+        core.set_policy_override(Some(Box::new(|_, _, v| v.fill(-f64::MAX))));
+        let t = 1.01;
         core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
         let r = core.tick(t, &mut cmd);
         assert_eq!(r.code, StatusCode::SafetyFallback, "{mode:?}");
