@@ -15,6 +15,7 @@
 //! bounds, one row) in a few µs, checked (finite, the row held) before it is used. When it
 //! declines (a clamp of `v` that violates the row, a degenerate row, overflow, no
 //! convergence) Clarabel solves the QP as before.
+//!
 //! Following Clarabel's data-updating API the solver is built once at setup (presolve off,
 //! no time limit: its clock counts setup time) and each tick only updates `P`, `q` and `b`
 //! (and the barrier row of `A`) in place. When the unconstrained optimum `v` already
