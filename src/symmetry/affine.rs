@@ -139,10 +139,9 @@ impl OneParamAction {
     /// `out = A x + b` (the generator at `x`).
     #[inline]
     fn generator(&self, x: &[f64], out: &mut [f64]) {
-        let m = self.offset.len();
-        for i in 0..m {
-            let row = &self.linear[i * m..(i + 1) * m];
-            out[i] = self.offset[i] + row.iter().zip(x).map(|(a, v)| a * v).sum::<f64>();
+        self.linear_part(x, out);
+        for (o, b) in out.iter_mut().zip(&self.offset) {
+            *o += b;
         }
     }
 
@@ -221,14 +220,10 @@ impl OneParamAction {
             }
             OneParamKind::Rotation => {
                 // H² [x; 1] = [A h(x); 0].
-                let m = self.offset.len();
-                for (i, o) in h2.iter_mut().enumerate() {
-                    let row = &self.linear[i * m..(i + 1) * m];
-                    *o = row.iter().zip(h.iter()).map(|(a, v)| a * v).sum::<f64>();
-                }
+                self.linear_part(h, h2);
                 let (s, c) = t.sin_cos();
                 let c1 = 1.0 - c;
-                for i in 0..m {
+                for i in 0..self.offset.len() {
                     x[i] += s * h[i] + c1 * h2[i];
                 }
             }
@@ -282,12 +277,8 @@ impl VectorField for OneParamAction {
         out: &mut [f64],
         out_d: &mut [f64],
     ) -> Option<bool> {
-        let m = self.offset.len();
         self.generator(x, out);
-        for i in 0..m {
-            let row = &self.linear[i * m..(i + 1) * m];
-            out_d[i] = row.iter().zip(delta).map(|(a, v)| a * v).sum::<f64>();
-        }
+        self.linear_part(delta, out_d);
         Some(true)
     }
 }

@@ -28,7 +28,6 @@
 //! allocate nothing (a caller-owned [`ComposedWorkspace`]; failures are fixed-size
 //! [`ComposedError`]s), which puts them on the control tick.
 
-use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
 use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
@@ -42,7 +41,7 @@ use crate::symmetry::finite::SignedPermutation;
 use crate::symmetry::transfer::flow::{
     integrate, integrate_rk4, FlowSettings, FlowStatus, FlowWorkspace,
 };
-use crate::symmetry::transfer::lift::{wrap_angle, LiftFieldScratch, LiftedField};
+use crate::symmetry::transfer::lift::{jacobian_times, wrap_angle, LiftFieldScratch, LiftedField};
 
 /// Relative tolerance when comparing two specs' generators.
 const SPEC_TOL: f64 = 1e-9;
@@ -650,7 +649,7 @@ impl ComposedLift {
         self.check(s)?;
         // The task velocity to reach, Dg J(q) v (into `xg`).
         self.kin.jacobian(q, &mut ws.kws);
-        mat_vec(&ws.kws.jac, v, &mut ws.x);
+        jacobian_times(&ws.kws.jac, v, &mut ws.x);
         self.spec
             .task
             .apply_linear(s, &ws.x, &mut ws.xg, &mut ws.h, &mut ws.h2);
@@ -686,7 +685,7 @@ impl ComposedLift {
         // field evaluation was regular at `b` (hence at `q_out = ρ b`); a non-regular factor
         // here (not expected) leaves the uncorrected tangent.
         self.kin.jacobian(q_out, &mut ws.kws);
-        mat_vec(&ws.kws.jac, v_out, &mut ws.x);
+        jacobian_times(&ws.kws.jac, v_out, &mut ws.x);
         for (d, t) in ws.x.iter_mut().zip(&ws.xg) {
             *d = t - *d;
         }
@@ -697,17 +696,6 @@ impl ComposedLift {
             }
         }
         Ok(())
-    }
-}
-
-/// `out = A v` for a column-major `m × n` matrix (allocation-free).
-fn mat_vec(a: &DMatrix<f64>, v: &[f64], out: &mut [f64]) {
-    let m = a.nrows();
-    out.fill(0.0);
-    for (col, &vc) in a.as_slice().chunks_exact(m).zip(v) {
-        for (o, x) in out.iter_mut().zip(col) {
-            *o += x * vc;
-        }
     }
 }
 

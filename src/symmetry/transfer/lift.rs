@@ -215,12 +215,7 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
         let kin = self.kin;
         kin.jacobian(q, ws);
         let (m, n) = (xp.len(), out.len());
-        xp.fill(0.0);
-        for (col, &d) in ws.jac.as_slice().chunks_exact(m).zip(delta) {
-            for (x, j) in xp.iter_mut().zip(col) {
-                *x += j * d;
-            }
-        }
+        jacobian_times(&ws.jac, delta, xp);
         // v(f(q)) and dv[J δ]: closed form, or a central difference along J δ.
         let x = ws.x.as_slice();
         if self.task.eval_derivative(x, xp, xdot, vp).is_none() {
@@ -277,6 +272,18 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
             *o += gi;
         }
         Some(true)
+    }
+}
+
+/// `out = J v` for the column-major `m × n` task Jacobian (allocation-free; column by
+/// column, the order every caller relies on for identical rounding).
+pub(crate) fn jacobian_times(j: &nalgebra::DMatrix<f64>, v: &[f64], out: &mut [f64]) {
+    let m = j.nrows();
+    out.fill(0.0);
+    for (col, &vc) in j.as_slice().chunks_exact(m).zip(v) {
+        for (o, x) in out.iter_mut().zip(col) {
+            *o += x * vc;
+        }
     }
 }
 
