@@ -1174,6 +1174,11 @@ impl NodeCore {
         &self.policy
     }
 
+    /// The validated inputs so far (joint state, condition, their sequence numbers).
+    pub fn inputs(&self) -> &Inputs {
+        &self.gate.inputs
+    }
+
     /// Replaces the node's inputs by `src` (from another gate); allocation-free.
     pub fn load_inputs(&mut self, src: &Inputs) {
         self.gate.inputs.copy_from(src);

@@ -2,7 +2,9 @@
 //! real-time guidance suggests: the control thread (the tick: FK, Jacobian, MLP, safety QP,
 //! command) under `SCHED_FIFO` at a fixed priority, so a compiler or a logger on the same
 //! cores cannot delay it, and the process's memory locked (`mlockall(MCL_CURRENT |
-//! MCL_FUTURE)`), so a page fault never stalls a tick.
+//! MCL_FUTURE)`), so a page fault never stalls a tick. Optionally RustDDS's event-loop
+//! thread too (`dds_priority`), which receives and sends every sample: under load the
+//! round trip's tail sits there once the control thread runs first (README, issue 20).
 //!
 //! Both need privileges: `CAP_SYS_NICE` or an `rtprio` limit ≥ the priority (`ulimit -r`,
 //! `/etc/security/limits.conf`, `docker run --cap-add SYS_NICE --ulimit rtprio=99`) and
@@ -11,7 +13,7 @@
 //!
 //! ```toml
 //! [node]
-//! realtime = { priority = 80, lock_memory = true }
+//! realtime = { priority = 80, lock_memory = true, dds_priority = 79 }
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -25,16 +27,22 @@ pub struct RealtimeConfig {
     /// Lock the process's current and future pages in RAM.
     #[serde(default)]
     pub lock_memory: bool,
+    /// `SCHED_FIFO` priority (1 … 99) of RustDDS's event-loop threads (every sample's
+    /// receive and send); absent: they run at normal priority.
+    #[serde(default)]
+    pub dds_priority: Option<i32>,
 }
 
 impl RealtimeConfig {
     /// Checks the priority range.
     pub fn validate(&self) -> Result<(), String> {
-        if !(1..=99).contains(&self.priority) {
-            return Err(format!(
-                "priority = {} must be in 1 … 99 (SCHED_FIFO)",
-                self.priority
-            ));
+        for (key, p) in [
+            ("priority", Some(self.priority)),
+            ("dds_priority", self.dds_priority),
+        ] {
+            if let Some(p) = p.filter(|p| !(1..=99).contains(p)) {
+                return Err(format!("{key} = {p} must be in 1 … 99 (SCHED_FIFO)"));
+            }
         }
         Ok(())
     }
@@ -56,6 +64,11 @@ pub enum RealtimeOutcome {
         /// The OS error and how to grant the privilege.
         reason: String,
     },
+}
+
+/// How to grant the `SCHED_FIFO` privilege, for a refusal at `priority`.
+fn rtprio_hint(priority: i32) -> String {
+    format!("grant CAP_SYS_NICE or an rtprio limit ≥ {priority} (ulimit -r, /etc/security/limits.conf; docker: --cap-add SYS_NICE --ulimit rtprio=99)")
 }
 
 fn os_error(call: &str, hint: &str) -> String {
@@ -89,10 +102,7 @@ pub fn apply(cfg: &RealtimeConfig, thread: libc::pthread_t) -> Vec<RealtimeOutco
     } else {
         let e = std::io::Error::from_raw_os_error(rc);
         let reason = if rc == libc::EPERM {
-            format!(
-                "pthread_setschedparam: {e}; grant CAP_SYS_NICE or an rtprio limit ≥ {} (ulimit -r, /etc/security/limits.conf; docker: --cap-add SYS_NICE --ulimit rtprio=99)",
-                cfg.priority
-            )
+            format!("pthread_setschedparam: {e}; {}", rtprio_hint(cfg.priority))
         } else {
             format!("pthread_setschedparam: {e}")
         };
@@ -114,7 +124,56 @@ pub fn apply(cfg: &RealtimeConfig, thread: libc::pthread_t) -> Vec<RealtimeOutco
             }
         });
     }
+    if let Some(p) = cfg.dds_priority {
+        out.push(apply_to_dds_threads(p));
+    }
     out
+}
+
+/// The name (`comm`, truncated by the kernel to 15 bytes) of RustDDS's per-participant
+/// event-loop threads, `RustDDS Participant {id} event loop`.
+const DDS_EVENT_LOOP_COMM: &str = "RustDDS Partici";
+
+/// Puts this process's RustDDS event-loop threads (found by name in `/proc/self/task`)
+/// under `SCHED_FIFO` at `priority`.
+#[cfg(unix)]
+fn apply_to_dds_threads(priority: i32) -> RealtimeOutcome {
+    let what = format!("DDS event-loop threads SCHED_FIFO priority {priority}");
+    let tids: Vec<libc::pid_t> = std::fs::read_dir("/proc/self/task")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let tid = e.file_name().to_str()?.parse().ok()?;
+            let comm = std::fs::read_to_string(e.path().join("comm")).ok()?;
+            comm.starts_with(DDS_EVENT_LOOP_COMM).then_some(tid)
+        })
+        .collect();
+    if tids.is_empty() {
+        return RealtimeOutcome::Refused {
+            what,
+            reason: format!("no thread named `{DDS_EVENT_LOOP_COMM}…` in /proc/self/task"),
+        };
+    }
+    let param = libc::sched_param {
+        sched_priority: priority,
+    };
+    for &tid in &tids {
+        // SAFETY: `param` outlives the call; a tid that has exited makes it fail (ESRCH).
+        if unsafe { libc::sched_setscheduler(tid, libc::SCHED_FIFO, &param) } != 0 {
+            return RealtimeOutcome::Refused {
+                what,
+                reason: os_error("sched_setscheduler", &rtprio_hint(priority)),
+            };
+        }
+    }
+    RealtimeOutcome::Applied {
+        what: format!(
+            "{what} ({} thread{})",
+            tids.len(),
+            if tids.len() == 1 { "" } else { "s" }
+        ),
+    }
 }
 
 #[cfg(test)]
@@ -127,8 +186,15 @@ mod tests {
             let c = RealtimeConfig {
                 priority: p,
                 lock_memory: false,
+                dds_priority: None,
             };
             assert!(c.validate().unwrap_err().contains("1 … 99"), "{p}");
+            let d = RealtimeConfig {
+                priority: 80,
+                lock_memory: false,
+                dds_priority: Some(p),
+            };
+            assert!(d.validate().unwrap_err().starts_with("dds_priority"), "{p}");
         }
         let ok: RealtimeConfig = toml::from_str("priority = 80\nlock_memory = true").unwrap();
         assert_eq!(ok.validate(), Ok(()));

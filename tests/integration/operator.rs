@@ -302,7 +302,10 @@ fn ping_measures_round_trips_to_a_running_node() {
         hops.contains("DDS in (publisher → this node) median"),
         "{hops}"
     );
-    assert!(hops.contains("hand-over → tick median"), "{hops}");
+    assert!(
+        hops.contains("DDS receive → control thread median"),
+        "{hops}"
+    );
 
     // No node on another domain: exit 1 with a reason.
     let out = ping(domain + 1, &["--connect-timeout-s", "1"]);
@@ -339,8 +342,9 @@ fn thread_policy(pid: u32, comm: &str) -> Option<(u32, u32)> {
     None
 }
 
-/// `[node] realtime = { priority = 10, lock_memory = true }`: with the privilege the
-/// kernel shows the control thread under SCHED_FIFO at priority 10 and the memory locked;
+/// `[node] realtime = { priority = 10, lock_memory = true, dds_priority = 9 }`: with the
+/// privilege the kernel shows the control thread under SCHED_FIFO at priority 10, RustDDS's
+/// event-loop thread at 9 and the memory locked;
 /// without it (CAP_SYS_NICE and CAP_IPC_LOCK dropped from the bounding set) the node says
 /// what was refused and how to grant it, keeps commanding at normal priority, and exits 0.
 #[test]
@@ -349,7 +353,7 @@ fn realtime_settings_apply_or_say_why_not() {
     let text = std::fs::read_to_string(cfg()).unwrap();
     let text = text.replace(
         "[node]\n",
-        "[node]\nrealtime = { priority = 10, lock_memory = true }\n",
+        "[node]\nrealtime = { priority = 10, lock_memory = true, dds_priority = 9 }\n",
     );
     let text = text.replace("\"../", &format!("\"{}/", common::root().display()));
     let path = dir.join("rt.toml");
@@ -377,18 +381,24 @@ fn realtime_settings_apply_or_say_why_not() {
         );
         let text = std::fs::read_to_string(&log).unwrap();
         let (policy, prio) = thread_policy(node.id(), "crossym-control").expect("control thread");
+        let dds = thread_policy(node.id(), "RustDDS Partici").expect("DDS event-loop thread");
         let locked_kb: u64 = std::fs::read_to_string(format!("/proc/{}/status", node.id()))
             .unwrap()
             .lines()
             .find(|l| l.starts_with("VmLck:"))
             .and_then(|l| l.split_whitespace().nth(1)?.parse().ok())
             .unwrap();
-        if privileged && !text.contains("REFUSED") {
+        if privileged && !text.contains("control thread SCHED_FIFO priority 10 REFUSED") {
             assert!(
                 text.contains("realtime: control thread SCHED_FIFO priority 10"),
                 "{text}"
             );
             assert_eq!((policy, prio), (1, 10), "{text}");
+            assert!(
+                text.contains("realtime: DDS event-loop threads SCHED_FIFO priority 9 (1 thread)"),
+                "{text}"
+            );
+            assert_eq!(dds, (1, 9), "{text}");
             assert!(locked_kb > 1000, "VmLck {locked_kb} kB\n{text}");
         } else if privileged {
             eprintln!("realtime refused even unconfined here: {text}");
@@ -403,7 +413,12 @@ fn realtime_settings_apply_or_say_why_not() {
                 text.contains("mlockall") && text.contains("CAP_IPC_LOCK"),
                 "{text}"
             );
+            assert!(
+                text.contains("DDS event-loop threads SCHED_FIFO priority 9 REFUSED"),
+                "{text}"
+            );
             assert_eq!(policy, 0, "{text}");
+            assert_eq!(dds.0, 0, "{text}");
             assert_eq!(locked_kb, 0, "{text}");
         }
         assert_eq!(node.term(), 0, "{}", common::log_tail(&log));
