@@ -5,6 +5,12 @@
 //! MCL_FUTURE)`), so a page fault never stalls a tick. Optionally RustDDS's event-loop
 //! thread too (`dds_priority`), which receives and sends every sample: under load the
 //! round trip's tail sits there once the control thread runs first (README, issue 20).
+//! And optionally a CPU wake-up latency limit (`cpu_latency_us`, the kernel's PM QoS
+//! `/dev/cpu_dma_latency`, as `cyclictest` sets it), held while the node runs: with 0 an
+//! idle CPU polls instead of halting, so the threads on the joint state → command path
+//! (DDS receive, control thread, DDS send) wake in microseconds rather than tens to
+//! hundreds — on a virtual machine a halted vCPU is the dominant cost of an idle round
+//! trip. It applies to every CPU of the machine and costs their idle time.
 //!
 //! Both need privileges: `CAP_SYS_NICE` or an `rtprio` limit ≥ the priority (`ulimit -r`,
 //! `/etc/security/limits.conf`, `docker run --cap-add SYS_NICE --ulimit rtprio=99`) and
@@ -13,7 +19,7 @@
 //!
 //! ```toml
 //! [node]
-//! realtime = { priority = 80, lock_memory = true, dds_priority = 79 }
+//! realtime = { priority = 80, lock_memory = true, dds_priority = 79, cpu_latency_us = 0 }
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -31,6 +37,10 @@ pub struct RealtimeConfig {
     /// receive and send); absent: they run at normal priority.
     #[serde(default)]
     pub dds_priority: Option<i32>,
+    /// CPU wake-up latency limit (µs) requested through `/dev/cpu_dma_latency` while the node
+    /// runs (0: idle CPUs poll); absent: the kernel's default.
+    #[serde(default)]
+    pub cpu_latency_us: Option<u32>,
 }
 
 impl RealtimeConfig {
@@ -130,6 +140,42 @@ pub fn apply(cfg: &RealtimeConfig, thread: libc::pthread_t) -> Vec<RealtimeOutco
     out
 }
 
+/// A PM QoS CPU latency request, in force while this value lives (the kernel drops it when
+/// the file is closed).
+#[derive(Debug)]
+pub struct CpuLatencyRequest {
+    _file: std::fs::File,
+}
+
+/// Requests a CPU wake-up latency of at most `us` µs from the kernel (writes it to
+/// `/dev/cpu_dma_latency` and keeps the file open in the returned request).
+pub fn request_cpu_latency(us: u32) -> (Option<CpuLatencyRequest>, RealtimeOutcome) {
+    use std::io::Write;
+    let what = format!("CPU wake-up latency ≤ {us} µs (/dev/cpu_dma_latency)");
+    let hint = "needs root or write access to /dev/cpu_dma_latency (docker: --device /dev/cpu_dma_latency)";
+    let r = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/cpu_dma_latency")
+        .and_then(|mut f| {
+            // The device takes the value as a native-endian 32-bit integer.
+            f.write_all(&(us as i32).to_ne_bytes())?;
+            Ok(f)
+        });
+    match r {
+        Ok(f) => (
+            Some(CpuLatencyRequest { _file: f }),
+            RealtimeOutcome::Applied { what },
+        ),
+        Err(e) => (
+            None,
+            RealtimeOutcome::Refused {
+                what,
+                reason: format!("/dev/cpu_dma_latency: {e}; {hint}"),
+            },
+        ),
+    }
+}
+
 /// The name (`comm`, truncated by the kernel to 15 bytes) of RustDDS's per-participant
 /// event-loop threads, `RustDDS Participant {id} event loop`.
 const DDS_EVENT_LOOP_COMM: &str = "RustDDS Partici";
@@ -187,12 +233,14 @@ mod tests {
                 priority: p,
                 lock_memory: false,
                 dds_priority: None,
+                cpu_latency_us: None,
             };
             assert!(c.validate().unwrap_err().contains("1 … 99"), "{p}");
             let d = RealtimeConfig {
                 priority: 80,
                 lock_memory: false,
                 dds_priority: Some(p),
+                cpu_latency_us: None,
             };
             assert!(d.validate().unwrap_err().starts_with("dds_priority"), "{p}");
         }

@@ -342,9 +342,10 @@ fn thread_policy(pid: u32, comm: &str) -> Option<(u32, u32)> {
     None
 }
 
-/// `[node] realtime = { priority = 10, lock_memory = true, dds_priority = 9 }`: with the
-/// privilege the kernel shows the control thread under SCHED_FIFO at priority 10, RustDDS's
-/// event-loop thread at 9 and the memory locked;
+/// `[node] realtime = { priority = 10, lock_memory = true, dds_priority = 9,
+/// cpu_latency_us = 0 }`: with the privilege the kernel shows the control thread under
+/// SCHED_FIFO at priority 10, RustDDS's event-loop thread at 9, the memory locked and its PM
+/// QoS CPU latency target at 0 while the node runs (back afterwards);
 /// without it (CAP_SYS_NICE and CAP_IPC_LOCK dropped from the bounding set) the node says
 /// what was refused and how to grant it, keeps commanding at normal priority, and exits 0.
 #[test]
@@ -353,7 +354,7 @@ fn realtime_settings_apply_or_say_why_not() {
     let text = std::fs::read_to_string(cfg()).unwrap();
     let text = text.replace(
         "[node]\n",
-        "[node]\nrealtime = { priority = 10, lock_memory = true, dds_priority = 9 }\n",
+        "[node]\nrealtime = { priority = 10, lock_memory = true, dds_priority = 9, cpu_latency_us = 0 }\n",
     );
     let text = text.replace("\"../", &format!("\"{}/", common::root().display()));
     let path = dir.join("rt.toml");
@@ -399,6 +400,10 @@ fn realtime_settings_apply_or_say_why_not() {
                 "{text}"
             );
             assert_eq!(dds, (1, 9), "{text}");
+            match cpu_latency_target() {
+                Some(us) => assert_eq!(us, 0, "{text}"),
+                None => eprintln!("SKIP cpu_latency_us check: /dev/cpu_dma_latency unreadable"),
+            }
             assert!(locked_kb > 1000, "VmLck {locked_kb} kB\n{text}");
         } else if privileged {
             eprintln!("realtime refused even unconfined here: {text}");
@@ -422,5 +427,15 @@ fn realtime_settings_apply_or_say_why_not() {
             assert_eq!(locked_kb, 0, "{text}");
         }
         assert_eq!(node.term(), 0, "{}", common::log_tail(&log));
+        if let Some(us) = cpu_latency_target() {
+            assert_ne!(us, 0, "the CPU latency request outlived the node");
+        }
     }
+}
+
+/// The kernel's current PM QoS CPU latency target (µs), read from `/dev/cpu_dma_latency`
+/// (`None` when it cannot be read, e.g. without root).
+fn cpu_latency_target() -> Option<i32> {
+    let b = std::fs::read("/dev/cpu_dma_latency").ok()?;
+    Some(i32::from_ne_bytes(b.get(..4)?.try_into().ok()?))
 }

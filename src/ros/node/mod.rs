@@ -126,9 +126,16 @@ pub fn run(
         .map_err(|e| NodeRunError::Runtime {
             message: format!("control thread: {e}"),
         })?;
+    let mut _cpu_latency = None;
     if let Some(rt) = &cfg.realtime {
         use std::os::unix::thread::JoinHandleExt;
-        for o in super::realtime::apply(rt, control.as_pthread_t()) {
+        let mut outcomes = super::realtime::apply(rt, control.as_pthread_t());
+        if let Some(us) = rt.cpu_latency_us {
+            let (request, outcome) = super::realtime::request_cpu_latency(us);
+            _cpu_latency = request;
+            outcomes.push(outcome);
+        }
+        for o in outcomes {
             match o {
                 super::realtime::RealtimeOutcome::Applied { what } => {
                     log.log(Severity::Info, &format!("realtime: {what}"))
