@@ -17,6 +17,13 @@
 //!   node computes from it (median, p99 over 2000 round trips). DDS: run inside
 //!   `../shared/tools/netns-run`.
 //!
+//! - `floor` (after `latency`, in the same run): the machine's own wake-up floor, the
+//!   reference for the round trips: one
+//!   thread under `SCHED_FIFO` 95 (when permitted), memory locked, a PM QoS CPU latency
+//!   request of 0 µs held, sleeping to absolute deadlines (`clock_nanosleep`) every 1 ms
+//!   (20 000) and every 10 ms (3 000); prints how late it woke (median, p99, p99.9, max),
+//!   as `cyclictest` does. No round trip can beat the wake-ups it is made of.
+//!
 //! Run: `../shared/tools/netns-run cargo bench --bench node`.
 
 use std::hint::black_box;
@@ -311,5 +318,71 @@ fn bench_latency(_c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, bench_tick, bench_latency);
+/// The machine's wake-up floor (see the module doc): lateness of a real-time thread's
+/// timed wake-ups, at 1 kHz and 100 Hz.
+fn bench_floor(_c: &mut Criterion) {
+    use crossym::ros::realtime::{self, RealtimeConfig, RealtimeOutcome};
+    if std::env::var("CROSSYM_TICK_ONLY").is_ok() {
+        return;
+    }
+    let (_request, outcome) = realtime::request_cpu_latency(0);
+    let rt = RealtimeConfig {
+        priority: 95,
+        lock_memory: true,
+        dds_priority: None,
+        cpu_latency_us: None,
+    };
+    std::thread::spawn(move || {
+        // SAFETY: pthread_self has no preconditions.
+        let mut applied = realtime::apply(&rt, unsafe { libc::pthread_self() });
+        applied.push(outcome);
+        for o in &applied {
+            if let RealtimeOutcome::Refused { what, reason } = o {
+                println!("floor: {what} REFUSED ({reason})");
+            }
+        }
+        for (period_ns, n) in [(1_000_000i64, 20_000usize), (10_000_000, 3_000)] {
+            let mut late = Vec::with_capacity(n);
+            let mut t = libc::timespec {
+                tv_sec: 0,
+                tv_nsec: 0,
+            };
+            let mut now = t;
+            // SAFETY: valid pointers to local timespecs.
+            unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut t) };
+            for _ in 0..n {
+                t.tv_nsec += period_ns;
+                while t.tv_nsec >= 1_000_000_000 {
+                    t.tv_nsec -= 1_000_000_000;
+                    t.tv_sec += 1;
+                }
+                // SAFETY: valid pointers to local timespecs.
+                unsafe {
+                    libc::clock_nanosleep(
+                        libc::CLOCK_MONOTONIC,
+                        libc::TIMER_ABSTIME,
+                        &t,
+                        std::ptr::null_mut(),
+                    );
+                    libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now);
+                }
+                let ns = (now.tv_sec - t.tv_sec) * 1_000_000_000 + (now.tv_nsec - t.tv_nsec);
+                late.push(ns as f64 * 1e-3);
+            }
+            late.sort_by(f64::total_cmp);
+            println!(
+                "floor/timed wake-up every {} ms (SCHED_FIFO 95, cpu latency 0 µs): lateness median {:.0} us, p99 {:.0} us, p99.9 {:.0} us, max {:.0} us over {n}",
+                period_ns / 1_000_000,
+                late[n / 2],
+                late[n * 99 / 100],
+                late[n * 999 / 1000],
+                late[n - 1],
+            );
+        }
+    })
+    .join()
+    .unwrap();
+}
+
+criterion_group!(benches, bench_tick, bench_latency, bench_floor);
 criterion_main!(benches);

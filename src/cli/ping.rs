@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 
 use crossym::config::Config;
 use crossym::ros::dds::{self, DdsSettings};
+use crossym::ros::realtime::{self, RealtimeConfig, RealtimeOutcome};
 use crossym::ros::{msg, OutputMode, Trigger};
 
 use super::ros::{node_config, NodeOverrides};
@@ -45,6 +46,10 @@ pub struct PingArgs {
     /// Spin on the subscription instead of blocking until DDS wakes ping (takes a core).
     #[arg(long)]
     pub busy_wait: bool,
+    /// Run ping as a real-time driver would: its thread under SCHED_FIFO at this priority
+    /// (1 … 99), its DDS event-loop thread one below, memory locked (needs privileges).
+    #[arg(long, value_name = "PRIORITY")]
+    pub realtime: Option<i32>,
     /// The node's flags, when it was started with some (name, namespace, output, topics).
     #[command(flatten)]
     pub node: NodeOverrides,
@@ -180,6 +185,31 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
             ros2_client::NodeOptions::new().enable_rosout(false),
         )
         .map_err(|e| anyhow::anyhow!("DDS node: {e:?}"))?;
+    if let Some(p) = a.realtime {
+        let rt = RealtimeConfig {
+            priority: p,
+            lock_memory: true,
+            dds_priority: Some((p - 1).max(1)),
+            cpu_latency_us: None,
+        };
+        rt.validate()
+            .map_err(|e| anyhow::anyhow!("--realtime: {e}"))?;
+        // SAFETY: pthread_self has no preconditions.
+        for o in realtime::apply(&rt, unsafe { libc::pthread_self() }) {
+            match o {
+                RealtimeOutcome::Applied { what } => {
+                    eprintln!(
+                        "crossym ping: realtime: {}",
+                        what.replace("control thread", "ping thread")
+                    )
+                }
+                RealtimeOutcome::Refused { what, reason } => {
+                    eprintln!("crossym ping: realtime: {what} REFUSED ({reason})")
+                }
+                _ => {}
+            }
+        }
+    }
     let js_pub = dds::publisher::<msg::JointState>(&mut node, &js_topic, dds::qos_reliable(10))?;
     let replies = match n.output {
         OutputMode::Trajectory => Replies::Trajectory(dds::subscription::<msg::JointTrajectory>(
