@@ -330,9 +330,13 @@ fn number_after(line: &str, after: &str) -> f64 {
 /// `comm` of process `pid`, as the kernel reports them (`/proc/<pid>/task/<tid>/stat`).
 fn thread_policy(pid: u32, comm: &str) -> Option<(u32, u32)> {
     for e in std::fs::read_dir(format!("/proc/{pid}/task")).ok()? {
-        let dir = e.ok()?.path();
-        if std::fs::read_to_string(dir.join("comm")).ok()?.trim() != comm {
+        // A thread may exit while the list is read: skip it, not the whole scan.
+        let Ok(dir) = e.map(|e| e.path()) else {
             continue;
+        };
+        match std::fs::read_to_string(dir.join("comm")) {
+            Ok(c) if c.trim() == comm => {}
+            _ => continue,
         }
         let stat = std::fs::read_to_string(dir.join("stat")).ok()?;
         // Fields after "pid (comm)": state is field 3; rt_priority 40, policy 41.
@@ -381,8 +385,17 @@ fn realtime_settings_apply_or_say_why_not() {
             common::log_tail(&log)
         );
         let text = std::fs::read_to_string(&log).unwrap();
-        let (policy, prio) = thread_policy(node.id(), "crossym-control").expect("control thread");
-        let dds = thread_policy(node.id(), "RustDDS Partici").expect("DDS event-loop thread");
+        // A new thread names itself once it runs: give it a moment after the log line.
+        let find = |comm: &str| {
+            (0..100).find_map(|_| {
+                thread_policy(node.id(), comm).or_else(|| {
+                    std::thread::sleep(Duration::from_millis(20));
+                    None
+                })
+            })
+        };
+        let (policy, prio) = find("crossym-control").expect("control thread");
+        let dds = find("RustDDS Partici").expect("DDS event-loop thread");
         let locked_kb: u64 = std::fs::read_to_string(format!("/proc/{}/status", node.id()))
             .unwrap()
             .lines()

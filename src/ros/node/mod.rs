@@ -126,27 +126,11 @@ pub fn run(
         .map_err(|e| NodeRunError::Runtime {
             message: format!("control thread: {e}"),
         })?;
-    let mut _cpu_latency = None;
-    if let Some(rt) = &cfg.realtime {
-        use std::os::unix::thread::JoinHandleExt;
-        let mut outcomes = super::realtime::apply(rt, control.as_pthread_t());
-        if let Some(us) = rt.cpu_latency_us {
-            let (request, outcome) = super::realtime::request_cpu_latency(us);
-            _cpu_latency = request;
-            outcomes.push(outcome);
-        }
-        for o in outcomes {
-            match o {
-                super::realtime::RealtimeOutcome::Applied { what } => {
-                    log.log(Severity::Info, &format!("realtime: {what}"))
-                }
-                super::realtime::RealtimeOutcome::Refused { what, reason } => log.log(
-                    Severity::Warn,
-                    &format!("realtime: {what} REFUSED ({reason}); running without it"),
-                ),
-            }
-        }
-    }
+    // Held until the node stops (the kernel drops the CPU latency request on close).
+    let _cpu_latency = cfg
+        .realtime
+        .as_ref()
+        .and_then(|rt| apply_realtime(rt, &control, &mut log));
 
     let mut io = IoSide {
         gate,
@@ -264,6 +248,36 @@ impl Endpoints {
             status: dds::publisher::<msg::Status>(node, &cfg.topics.status, dds::qos_reliable(10))?,
         })
     }
+}
+
+/// Applies `[node] realtime` to the control thread (and the DDS threads, the memory, the
+/// CPU latency) and logs each outcome; returns the CPU latency request to hold.
+fn apply_realtime(
+    rt: &super::realtime::RealtimeConfig,
+    control: &thread::JoinHandle<TickStats>,
+    log: &mut NodeLog,
+) -> Option<super::realtime::CpuLatencyRequest> {
+    use super::realtime::{self, RealtimeOutcome};
+    use std::os::unix::thread::JoinHandleExt;
+    let mut outcomes = realtime::apply(rt, control.as_pthread_t());
+    let mut held = None;
+    if let Some(us) = rt.cpu_latency_us {
+        let (request, outcome) = realtime::request_cpu_latency(us);
+        held = request;
+        outcomes.push(outcome);
+    }
+    for o in outcomes {
+        match o {
+            RealtimeOutcome::Applied { what } => {
+                log.log(Severity::Info, &format!("realtime: {what}"))
+            }
+            RealtimeOutcome::Refused { what, reason } => log.log(
+                Severity::Warn,
+                &format!("realtime: {what} REFUSED ({reason}); running without it"),
+            ),
+        }
+    }
+    held
 }
 
 /// Joins the control thread (which sent the final command) and the recorder, logs the
