@@ -1162,7 +1162,8 @@ impl NodeCore {
         }
     }
 
-    /// A separate input gate for this node (for an I/O thread feeding [`NodeCore::load_inputs`]).
+    /// A separate input gate with this node's checks (offline replay feeding
+    /// [`NodeCore::load_inputs`], the node's log explaining rejections).
     pub fn input_gate(&self) -> InputGate {
         InputGate::new(self.kin.joint_names(), &self.cfg)
             .with_domain(self.gate.domain)
