@@ -9,7 +9,9 @@
 //!   synthetic policy of the same widths without task features, the reference for what `x̃`
 //!   costs; `*-eq-*` ticks run the shipped policy canonicalised, `dΦ_g π₀(Φ_g⁻¹ q)` (issue
 //!   18), under the off-grid condition θ = 17°, λ = 0.73, σ = −1, flows by adaptive
-//!   Dormand–Prince or fixed-step RK4 (`CROSSYM_TICK_ONLY=eq` runs only those).
+//!   Dormand–Prince or fixed-step RK4 (`CROSSYM_TICK_ONLY=eq` runs only those);
+//!   `planar_8dof-head` runs the shipped task-space head `J⁺ Dg h(g⁻¹ f(q))` (issue 17)
+//!   under the same off-grid condition.
 //!   A second pass times 20 000 single ticks and prints median and p99, and how many of
 //!   them the safety QP filtered (Clarabel dominates such a tick).
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
@@ -55,6 +57,9 @@ enum Kind {
     /// A canonicalised policy `dΦ_g π₀(Φ_g⁻¹ q)` under an off-grid condition, its flows
     /// integrated by the given integrator.
     Canonicalised(LiftIntegrator),
+    /// The shipped task-space head `J⁺ Dg h(g⁻¹ f(q))` (issue 17) under the off-grid
+    /// condition.
+    TaskHead,
 }
 
 /// Off the training grid: θ = 17°, λ = 0.73, σ = −1.
@@ -67,9 +72,11 @@ const OFF_GRID: Condition = Condition {
 /// The node core and a path of joint states for one robot and policy kind.
 fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     let features = kind != Kind::NoFeatures;
-    let around_demo = matches!(kind, Kind::Canonicalised(_)) || robot == "rby1-letters";
+    let around_demo =
+        matches!(kind, Kind::Canonicalised(_) | Kind::TaskHead) || robot == "rby1-letters";
     // Config, synthetic policy or not, and the shipped policy otherwise.
     let (cfg_name, synthetic, shipped) = match robot {
+        "planar" if kind == Kind::TaskHead => ("letters.toml", false, "pi_mrt_head_planar"),
         "planar" => ("letters.toml", !features, "pi_mrt_planar"),
         "rby1-letters" => ("rby1-letters.toml", false, "pi_mrt_rby1_letters"),
         _ => ("rby1.toml", true, ""),
@@ -95,6 +102,9 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     if let Kind::Canonicalised(integrator) = kind {
         policy.meta.canonicalised =
             Some(crossym::pipeline::composition(&cfg, &kin, integrator).unwrap());
+        node_cfg.default_condition = OFF_GRID;
+    }
+    if kind == Kind::TaskHead {
         node_cfg.default_condition = OFF_GRID;
     }
     // Canonicalised and RB-Y1's letters: around the first demonstration's start (the
@@ -138,6 +148,7 @@ fn bench_tick(c: &mut Criterion) {
         ("planar", Kind::NoFeatures, "-no-xt"),
         ("planar", Kind::Canonicalised(adaptive), "-eq-adaptive"),
         ("planar", Kind::Canonicalised(rk4), "-eq-rk4"),
+        ("planar", Kind::TaskHead, "-head"),
         ("rby1", Kind::Features, ""),
         ("rby1", Kind::NoFeatures, "-no-xt"),
         ("rby1-letters", Kind::Features, ""),

@@ -64,6 +64,12 @@ enum Command {
         /// sidecar records the composition; every command loads it like any policy).
         #[arg(long, conflicts_with = "group")]
         equivariant: bool,
+        /// Train a task-space head `h` on the original demonstrations' task paths and save
+        /// it canonicalised by `--group`'s action on X and lifted to Q by the horizontal
+        /// lift: `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))`, exactly equivariant in X under the
+        /// group (the sidecar records the action; every command loads it like any policy).
+        #[arg(long, conflicts_with = "equivariant")]
+        task_head: bool,
         /// Output weights (`.safetensors`; a `.json` sidecar and the loss log `.loss.csv`
         /// are written beside it).
         #[arg(long)]
@@ -299,12 +305,13 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             config,
             group,
             equivariant,
+            task_head,
             out,
             iterations,
         } => train(
             &config,
             group.as_deref().unwrap_or("MRT"),
-            equivariant,
+            TrainKind::from_flags(equivariant, task_head),
             &out,
             iterations,
         ),
@@ -688,23 +695,59 @@ fn augment(path: &PathBuf, plot: Option<&std::path::Path>) -> anyhow::Result<Exi
     Ok(ExitCode::SUCCESS)
 }
 
+/// What `crossym train` trains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum TrainKind {
+    /// `π(q, s)` on the demonstrations augmented with the group.
+    Augmented,
+    /// `π₀` on the originals, canonicalised by the composition (`--equivariant`).
+    Equivariant,
+    /// A task-space head on the originals' task paths (`--task-head`).
+    TaskHead,
+}
+
+impl TrainKind {
+    fn from_flags(equivariant: bool, task_head: bool) -> Self {
+        match (equivariant, task_head) {
+            (true, _) => Self::Equivariant,
+            (_, true) => Self::TaskHead,
+            _ => Self::Augmented,
+        }
+    }
+}
+
 fn train(
     path: &PathBuf,
     group: &str,
-    equivariant: bool,
-    out: &PathBuf,
+    kind: TrainKind,
+    out: &std::path::Path,
     iterations: Option<usize>,
 ) -> anyhow::Result<ExitCode> {
     use crossym::data::augmentation::SubGroup;
     let cfg = Config::from_file(path)?;
-    let g = if equivariant {
-        SubGroup::Identity
+    // A task head may be written for several sub-groups at once (one network).
+    let groups: Vec<SubGroup> = if kind == TrainKind::Equivariant {
+        vec![SubGroup::Identity]
     } else {
-        SubGroup::parse(group)
-            .with_context(|| format!("--group `{group}`: expected identity, R, RT or MRT"))?
+        group
+            .split(',')
+            .map(|g| {
+                SubGroup::parse(g.trim())
+                    .with_context(|| format!("--group `{g}`: expected identity, R, RT or MRT"))
+            })
+            .collect::<anyhow::Result<_>>()?
     };
-    let mut tc = cfg
-        .train
+    anyhow::ensure!(
+        groups.len() == 1
+            || (kind == TrainKind::TaskHead && out.to_string_lossy().contains("{group}")),
+        "--group with several sub-groups needs --task-head and `{{group}}` in --out"
+    );
+    let g = groups[0];
+    let section = match kind {
+        TrainKind::TaskHead if cfg.train_task_head.is_some() => &cfg.train_task_head,
+        _ => &cfg.train,
+    };
+    let mut tc = section
         .clone()
         .with_context(|| format!("{}: no [train] section", path.display()))?;
     if let Some(it) = iterations {
@@ -716,22 +759,38 @@ fn train(
         &cfg,
         kin,
         Splits {
-            train: true,
+            // A task head trains on the originals' task paths: no augmentation.
+            train: kind != TrainKind::TaskHead,
             ..Splits::default()
         },
     )?;
-    println!(
-        "training {}on {} trajectories of {} ({} iterations)",
-        if equivariant {
-            "π₀ (canonicalised by the composition) "
-        } else {
-            ""
-        },
-        p.train.subset(g).len(),
-        g.label(),
-        tc.iterations
-    );
-    let bar = indicatif::ProgressBar::new(tc.iterations as u64);
+    match kind {
+        TrainKind::TaskHead => println!(
+            "training a task-space head on the task paths of {} original demonstrations, \
+             canonicalised by {} ({} iterations × {} ensemble member(s))",
+            p.demos.train.len(),
+            groups
+                .iter()
+                .map(|g| g.label())
+                .collect::<Vec<_>>()
+                .join(", "),
+            tc.iterations,
+            tc.ensemble
+        ),
+        _ => println!(
+            "training {}on {} trajectories of {} ({} iterations)",
+            if kind == TrainKind::Equivariant {
+                "π₀ (canonicalised by the composition) "
+            } else {
+                ""
+            },
+            p.train.subset(g).len(),
+            g.label(),
+            tc.iterations
+        ),
+    }
+    let total_iterations = tc.iterations * tc.ensemble;
+    let bar = indicatif::ProgressBar::new(total_iterations as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "  [{bar:30}] {pos}/{len} it, loss {msg} {elapsed}/{duration}",
@@ -741,32 +800,57 @@ fn train(
     );
     // The loss log: every logged iteration to CSV, a tenth of the run to stdout.
     let mut log = String::from("iteration,loss,learning_rate\n");
-    let tenth = tc.iterations.div_ceil(10).max(1);
+    let tenth = total_iterations.div_ceil(10).max(1);
     let mut next_line = tenth;
     let on_iteration = |it: usize, loss: f64| {
-        let lr = tc.lr_schedule.at(tc.learning_rate, it - 1, tc.iterations);
+        // Ensemble members report one after another: the schedule restarts per member.
+        let lr = tc
+            .lr_schedule
+            .at(tc.learning_rate, (it - 1) % tc.iterations, tc.iterations);
         log.push_str(&format!("{it},{loss:e},{lr:e}\n"));
         bar.set_position(it as u64);
         bar.set_message(format!("{loss:.4e}"));
-        if it >= next_line || it == tc.iterations {
+        if it >= next_line || it == total_iterations {
             bar.suspend(|| {
-                println!(
-                    "  iteration {it}/{}: loss {loss:.4e}, lr {lr:.2e}",
-                    tc.iterations
-                )
+                println!("  iteration {it}/{total_iterations}: loss {loss:.4e}, lr {lr:.2e}")
             });
             next_line = it + tenth;
         }
     };
-    let trained = if equivariant {
-        crossym::pipeline::train_equivariant(&cfg, kin, &p, &tc, on_iteration)?
-    } else {
-        crossym::pipeline::train(&cfg, kin, &p, g, &tc, on_iteration)?
+    let trained = match kind {
+        TrainKind::Equivariant => {
+            crossym::pipeline::train_equivariant(&cfg, kin, &p, &tc, on_iteration)?
+        }
+        TrainKind::TaskHead => {
+            crossym::pipeline::train_task_head(&cfg, kin, &p, g, &tc, on_iteration)?
+        }
+        TrainKind::Augmented => crossym::pipeline::train(&cfg, kin, &p, g, &tc, on_iteration)?,
     };
     let (policy, report) = (trained.policy, trained.report);
     bar.finish_and_clear();
-    crossym::pipeline::create_parent(out)?;
-    policy.save(out)?;
+    let mut written = Vec::new();
+    for &gk in &groups {
+        let file = PathBuf::from(
+            out.to_string_lossy()
+                .replace("{group}", &gk.label().replace("G_", "").to_lowercase()),
+        );
+        let p = if gk == g {
+            policy.clone()
+        } else {
+            crossym::pipeline::task_head_for(&cfg, kin, &policy, gk)?
+        };
+        crossym::pipeline::create_parent(&file)?;
+        p.save(&file)?;
+        written.push(file);
+    }
+    let out = &written[0];
+    if written.len() > 1 {
+        let names: Vec<String> = written.iter().map(|f| f.display().to_string()).collect();
+        println!(
+            "one task head, written for each sub-group: {}",
+            names.join(", ")
+        );
+    }
     let log_path = out.with_extension("loss.csv");
     std::fs::write(&log_path, &log).with_context(|| format!("writing {}", log_path.display()))?;
     println!(

@@ -143,6 +143,10 @@ pub struct Config {
     /// Policy training (`[train]`).
     #[serde(default)]
     pub train: Option<TrainConfig>,
+    /// Training of a task-space head (`[train_task_head]`, `crossym train --task-head`;
+    /// absent: `[train]`). Task features are always off: the head reads the task point.
+    #[serde(default)]
+    pub train_task_head: Option<TrainConfig>,
     /// Evaluation (`[eval]`).
     #[serde(default)]
     pub eval: EvalConfig,

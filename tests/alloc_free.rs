@@ -630,8 +630,6 @@ fn node_core_tick_is_allocation_free() {
 #[test]
 fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
     use crossym::config::Config;
-    use crossym::ros::{msg, NodeConfig, NodeCore};
-    use crossym::safety::{SafetySettings, SafetyStatus};
     use crossym::symmetry::compose::Condition;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut configs = vec![("planar", "config/letters.toml")];
@@ -687,60 +685,148 @@ fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
         assert!(ok > 0, "[{robot}] no condition was feasible");
 
         // The node's tick and the gate's feasibility check.
-        let limits = kin.limits().to_vec();
-        let names = kin.joint_names().to_vec();
-        let mut core = NodeCore::new(
+        node_ticks_allocate_nothing(
+            &format!("[{robot}] canonicalised"),
             kin,
             policy,
-            SafetySettings::default(),
-            NodeConfig::default(),
-        )
-        .unwrap();
-        let mut gate = core.input_gate();
-        let mut cmd = core.command();
-        let mut m = msg::JointState {
-            name: names,
-            position: q_ref.clone(),
-            ..Default::default()
-        };
-        let mut fast = 0usize;
-        for k in 0..120 {
-            for (j, (p, b)) in m.position.iter_mut().zip(&q_ref).enumerate() {
-                *p = (b + 0.1 * (0.02 * k as f64 + j as f64).sin())
-                    .clamp(limits[j].lower, limits[j].upper);
-            }
-            let now = k as f64 * 0.01;
-            assert!(gate.on_joint_state(&m, now).is_ok());
-            if k % 20 == 5 {
-                let c = msg::SymmetryCondition {
-                    theta: rng.random_range(-3.0..3.0),
-                    scale: rng.random_range(0.3..1.4),
-                    reflection: if k % 40 == 5 { 1 } else { -1 },
-                    ..Default::default()
-                };
-                let (r, count, first) = count_allocs(|| gate.on_condition(&c));
-                let text = first.map(|b| b.to_string()).unwrap_or_default();
-                assert_eq!(
-                    count, 0,
-                    "[{robot}] feasibility check ({r:?}) allocated:\n{text}"
-                );
-            }
-            let (rep, count, first) = count_allocs(|| {
-                core.load_inputs(gate.inputs());
-                core.tick(now, &mut cmd)
-            });
-            assert!(cmd.velocities.iter().all(|v| v.is_finite()));
-            if rep.safety == Some(SafetyStatus::Filtered) && count > 0 {
-                assert_only_clarabel_timers("canonicalised node tick", first);
+            &q_ref,
+            &mut rng,
+            0.3..1.4,
+        );
+    }
+}
+
+/// A task-space head (issue 17) evaluates and ticks the node without allocating, on both
+/// robots: FK with Jacobian, the `m × m` factor, the head's network, the group's action.
+#[test]
+fn task_head_and_its_node_tick_are_allocation_free() {
+    use crossym::config::Config;
+    use crossym::data::augmentation::SubGroup;
+    use crossym::policy::{task_coordinate_names, AnyPolicy, Policy};
+    use crossym::symmetry::compose::Condition;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut configs = vec![("planar", "config/letters.toml")];
+    if root.join("../shared/robots/rby1a/model.urdf").exists() {
+        configs.push(("rby1", "config/rby1-letters.toml"));
+    } else {
+        eprintln!("SKIP rby1 task head: ../shared/robots/rby1a/model.urdf absent");
+    }
+    for (robot, file) in configs {
+        let cfg = Config::from_file(root.join(file)).unwrap();
+        let kin = cfg.load_robot().unwrap().kinematics;
+        let (n, m) = (kin.dof(), kin.task_dim());
+        let mut head = Policy::synthetic(m, task_coordinate_names(&kin), &[64, 64], 5);
+        head.meta.task_head =
+            Some(crossym::pipeline::group_map(&cfg, &kin, SubGroup::MRT).unwrap());
+        let policy = AnyPolicy::new(head, &kin).unwrap();
+        assert!(policy.task_head().is_some());
+        let mut ws = policy.workspace();
+        let mut v = vec![0.0; n];
+        let q_ref = cfg
+            .check
+            .reference_q
+            .clone()
+            .unwrap_or_else(|| vec![0.0; n]);
+        let mut rng = StdRng::seed_from_u64(37);
+        let mut ok = 0usize;
+        for k in 0..60 {
+            let q: Vec<f64> = if k % 3 == 2 {
+                random_q(&mut rng, kin.limits())
             } else {
-                let text = first.map(|b| b.to_string()).unwrap_or_default();
-                assert_eq!(
-                    count, 0,
-                    "[{robot}] canonicalised node tick allocated:\n{text}"
-                );
-                fast += 1;
+                q_ref
+                    .iter()
+                    .map(|x| x + rng.random_range(-0.2..0.2))
+                    .collect()
+            };
+            let s = Condition {
+                theta: rng.random_range(-3.0..3.0),
+                scale: rng.random_range(0.3..1.4),
+                reflection: if k % 2 == 0 { 1 } else { -1 },
+            };
+            let (r, count, first) = count_allocs(|| policy.velocity(&q, &s, &mut v, &mut ws));
+            let text = first.map(|b| b.to_string()).unwrap_or_default();
+            assert_eq!(count, 0, "[{robot}] task head ({r:?}) allocated:\n{text}");
+            if r.is_ok() {
+                assert!(all_finite(&v));
+                ok += 1;
             }
         }
-        assert!(fast > 0, "[{robot}] no tick took an allocation-free path");
+        assert!(ok > 0, "[{robot}] the task head never evaluated");
+
+        node_ticks_allocate_nothing(
+            &format!("[{robot}] task head"),
+            kin,
+            policy,
+            &q_ref,
+            &mut rng,
+            0.5..1.0,
+        );
     }
+}
+
+/// 120 node ticks along a path around `q_ref` with a condition every 20 ticks (scales drawn
+/// from `scales`): the gate's condition check and every tick allocate nothing (a tick the
+/// QP filtered may allocate only Clarabel's timers).
+fn node_ticks_allocate_nothing(
+    label: &str,
+    kin: crossym::kinematics::Kinematics,
+    policy: crossym::policy::AnyPolicy,
+    q_ref: &[f64],
+    rng: &mut StdRng,
+    scales: std::ops::Range<f64>,
+) {
+    use crossym::ros::{msg, NodeConfig, NodeCore};
+    use crossym::safety::{SafetySettings, SafetyStatus};
+    let limits = kin.limits().to_vec();
+    let names = kin.joint_names().to_vec();
+    let mut core = NodeCore::new(
+        kin,
+        policy,
+        SafetySettings::default(),
+        NodeConfig::default(),
+    )
+    .unwrap();
+    let mut gate = core.input_gate();
+    let mut cmd = core.command();
+    let mut m = msg::JointState {
+        name: names,
+        position: q_ref.to_vec(),
+        ..Default::default()
+    };
+    let mut fast = 0usize;
+    for k in 0..120 {
+        for (j, (p, b)) in m.position.iter_mut().zip(q_ref).enumerate() {
+            *p = (b + 0.1 * (0.02 * k as f64 + j as f64).sin())
+                .clamp(limits[j].lower, limits[j].upper);
+        }
+        let now = k as f64 * 0.01;
+        assert!(gate.on_joint_state(&m, now).is_ok());
+        if k % 20 == 5 {
+            let c = msg::SymmetryCondition {
+                theta: rng.random_range(-3.0..3.0),
+                scale: rng.random_range(scales.clone()),
+                reflection: if k % 40 == 5 { 1 } else { -1 },
+                ..Default::default()
+            };
+            let (r, count, first) = count_allocs(|| gate.on_condition(&c));
+            let text = first.map(|b| b.to_string()).unwrap_or_default();
+            assert_eq!(
+                count, 0,
+                "{label} condition check ({r:?}) allocated:\n{text}"
+            );
+        }
+        let (rep, count, first) = count_allocs(|| {
+            core.load_inputs(gate.inputs());
+            core.tick(now, &mut cmd)
+        });
+        assert!(cmd.velocities.iter().all(|v| v.is_finite()));
+        if rep.safety == Some(SafetyStatus::Filtered) && count > 0 {
+            assert_only_clarabel_timers(&format!("{label} node tick"), first);
+        } else {
+            let text = first.map(|b| b.to_string()).unwrap_or_default();
+            assert_eq!(count, 0, "{label} node tick allocated:\n{text}");
+            fast += 1;
+        }
+    }
+    assert!(fast > 0, "{label}: no tick took an allocation-free path");
 }

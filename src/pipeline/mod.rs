@@ -18,8 +18,11 @@ use crate::data::augmentation::{letter_augmenter, AugmentedSet, GroupGrid, SubGr
 use crate::data::demonstrations::Demonstrations;
 use crate::data::letters::JointTrajectory;
 use crate::kinematics::Kinematics;
-use crate::policy::{AnyPolicy, Policy, PolicyMeta, TaskFeatures, TrainConfig, TrainReport};
+use crate::policy::{
+    AnyPolicy, CanonicalMap, Policy, PolicyMeta, TaskFeatures, TrainConfig, TrainReport,
+};
 use crate::symmetry::check::BuiltSymmetry;
+use crate::symmetry::compose::Condition;
 use crate::symmetry::transfer::composed::{ComposedSpec, LiftIntegrator};
 
 pub mod figures;
@@ -223,11 +226,19 @@ pub fn load_policy_for(kin: &Kinematics, file: &Path) -> Result<Policy, Pipeline
         path: file.to_path_buf(),
         message,
     };
-    if policy.meta.joint_names != kin.joint_names() {
+    let names = match policy.meta.task_head {
+        Some(_) => crate::policy::task_coordinate_names(kin),
+        None => kin.joint_names().to_vec(),
+    };
+    if policy.meta.joint_names != names {
         return Err(bad(format!(
-            "policy joints {:?} differ from the robot's {:?}",
+            "policy {} {:?} differ from the robot's {names:?}",
+            if policy.meta.task_head.is_some() {
+                "task coordinates"
+            } else {
+                "joints"
+            },
             policy.meta.joint_names,
-            kin.joint_names()
         )));
     }
     if let Some(t) = policy.task_features() {
@@ -292,6 +303,22 @@ pub fn load_any_policy(
         message,
     };
     let any = AnyPolicy::new(policy, kin).map_err(bad)?;
+    if let Some(head) = any.task_head() {
+        let want = group_map(cfg, kin, SubGroup::MRT)?;
+        let own = head.map();
+        let same = |a: bool, b: bool| !a || b;
+        if !(own.dim == want.dim
+            && same(own.reflection.is_some(), own.reflection == want.reflection)
+            && same(own.rotation.is_some(), own.rotation == want.rotation)
+            && same(own.scaling.is_some(), own.scaling == want.scaling))
+        {
+            return Err(bad(format!(
+                "the task head acts on X by another group than the config's `[composition]` \
+                 (config {})",
+                cfg.path.display()
+            )));
+        }
+    }
     if let Some(own) = any.composition() {
         let want = composition(cfg, kin, own.integrator)?;
         any.check_composition(&want)
@@ -388,6 +415,85 @@ pub fn train_equivariant(
     });
     meta.canonicalised = Some(composition);
     Ok(trained)
+}
+
+/// The action on `X` of sub-group `group` of the configuration's letter group
+/// (`[composition]`): the inverse map a task head is canonicalised by.
+pub fn group_map(
+    cfg: &Config,
+    kin: &Kinematics,
+    group: SubGroup,
+) -> Result<CanonicalMap, PipelineError> {
+    let (built, _) = crate::symmetry::check::build(kin, &cfg.symmetries)?;
+    let mut f = TaskFeatures::for_robot(kin, &built, &cfg.composition.order)
+        .map_err(|e| invalid(cfg, format!("[composition] for a task head: {e}")))?;
+    f.restrict_to(group);
+    Ok(f.spec().map.clone())
+}
+
+/// Trains a task-space head `h` on the original demonstrations' task paths (identity
+/// condition; `[train]` with task features off, as `h` reads the task point itself) and
+/// writes it canonicalised by `group`'s action on `X` and lifted to `Q` (issue 17,
+/// [`crate::policy::TaskHeadPolicy`]): `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))`, exactly
+/// equivariant in `X` under `group` for every condition whose drawing the arms reach.
+/// Augmented data would add nothing: canonicalised, it is the original data.
+pub fn train_task_head(
+    cfg: &Config,
+    kin: &Kinematics,
+    p: &Pipeline,
+    group: SubGroup,
+    tc: &TrainConfig,
+    on_iteration: impl FnMut(usize, f64),
+) -> Result<Trained, PipelineError> {
+    let paths: Vec<JointTrajectory> = p
+        .demos
+        .select(&p.demos.train)
+        .into_iter()
+        .map(crate::policy::task_path_trajectory)
+        .collect();
+    let data: Vec<_> = paths.iter().map(|t| (t, Condition::IDENTITY)).collect();
+    let meta = PolicyMeta::new(
+        &kin.robot,
+        crate::policy::task_coordinate_names(kin),
+        serde_json::Value::Null,
+    );
+    let tc = TrainConfig {
+        task_features: false,
+        ..tc.clone()
+    };
+    let (head, report) = crate::policy::train(&data, &tc, meta, on_iteration)?;
+    Ok(Trained {
+        policy: task_head_for(cfg, kin, &head, group)?,
+        report,
+        trajectories: data.len(),
+    })
+}
+
+/// The task head `head` (a network over `X`) canonicalised by sub-group `group`'s action
+/// on `X` (its sidecar records the map, the group and, below the whole group, the
+/// training grid restricted to it, which the node's condition box is built from). The
+/// four Table II policies of a task head share one network.
+pub fn task_head_for(
+    cfg: &Config,
+    kin: &Kinematics,
+    head: &Policy,
+    group: SubGroup,
+) -> Result<Policy, PipelineError> {
+    let mut policy = head.clone();
+    let grid = (group != SubGroup::MRT)
+        .then_some(cfg.augmentation.as_ref())
+        .flatten()
+        .map(|a| serde_json::to_value(&a.train).unwrap_or_default());
+    policy.meta.symmetry = serde_json::json!({
+        "group": group.label(),
+        "order": cfg.composition.order,
+        "grid": grid,
+        "task_head": true,
+    });
+    policy.meta.task_head = Some(group_map(cfg, kin, group)?);
+    policy.meta.canonicalised = None;
+    AnyPolicy::new(policy.clone(), kin).map_err(|e| invalid(cfg, e))?;
+    Ok(policy)
 }
 
 /// Writes `text` to `dir/name`, creating `dir` as needed; returns the path.

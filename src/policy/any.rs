@@ -1,10 +1,13 @@
 //! A policy as loaded from a file: a plain `π(q, s)`, or a network `π₀` canonicalised by
 //! the composed lifted action, `π(q, s) = dΦ_g|_{q₀} π₀(q₀)`, `q₀ = Φ_g⁻¹(q)` (issue 18,
 //! [`super::EquivariantPolicy`]). The sidecar says which ([`super::PolicyMeta::canonicalised`]);
-//! every consumer (evaluation, rollout, the node, replay) goes through [`AnyPolicy`].
+//! or a task-space head lifted to `Q`, `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))` (issue 17,
+//! [`super::TaskHeadPolicy`], [`super::PolicyMeta::task_head`]); every consumer
+//! (evaluation, rollout, the node, replay) goes through [`AnyPolicy`].
 
 use super::equivariant::{EquivariantPolicy, EquivariantWorkspace};
 use super::mlp::{Policy, PolicyWorkspace};
+use super::task_head::{TaskHeadPolicy, TaskHeadWorkspace};
 use crate::kinematics::Kinematics;
 use crate::symmetry::compose::Condition;
 use crate::symmetry::transfer::composed::{ComposedError, ComposedLift, ComposedSpec};
@@ -16,6 +19,8 @@ pub enum AnyPolicy {
     Plain(Box<Policy>),
     /// A base policy canonicalised by the composed lifted action.
     Canonicalised(Box<EquivariantPolicy>),
+    /// A task-space head canonicalised in `X` and lifted to `Q`.
+    TaskHead(Box<TaskHeadPolicy>),
 }
 
 /// Scratch of an [`AnyPolicy`].
@@ -25,6 +30,8 @@ pub enum AnyWorkspace {
     Plain(Box<PolicyWorkspace>),
     /// Of a canonicalised one.
     Canonicalised(Box<EquivariantWorkspace>),
+    /// Of a task head.
+    TaskHead(Box<TaskHeadWorkspace>),
 }
 
 impl From<Policy> for AnyPolicy {
@@ -40,10 +47,24 @@ impl From<EquivariantPolicy> for AnyPolicy {
     }
 }
 
+impl From<TaskHeadPolicy> for AnyPolicy {
+    fn from(p: TaskHeadPolicy) -> Self {
+        Self::TaskHead(Box::new(p))
+    }
+}
+
 impl AnyPolicy {
     /// The policy a file holds: canonicalised through `kin` when its sidecar records a
     /// composition ([`super::PolicyMeta::canonicalised`]), plain otherwise.
     pub fn new(policy: Policy, kin: &Kinematics) -> Result<Self, String> {
+        if let Some(map) = policy.meta.task_head.clone() {
+            if policy.meta.canonicalised.is_some() {
+                return Err("a policy file cannot be both a task head and canonicalised".into());
+            }
+            return Ok(Self::TaskHead(Box::new(TaskHeadPolicy::new(
+                policy, map, kin,
+            )?)));
+        }
         match policy.meta.canonicalised.clone() {
             None => Ok(Self::Plain(Box::new(policy))),
             Some(spec) => {
@@ -56,18 +77,28 @@ impl AnyPolicy {
         }
     }
 
-    /// The network: `π` itself, or the canonicalised policy's `π₀`.
+    /// The network: `π` itself, the canonicalised policy's `π₀`, or the task head's `h`
+    /// (over the task coordinates, not the joints).
     pub fn network(&self) -> &Policy {
         match self {
             Self::Plain(p) => p,
             Self::Canonicalised(p) => p.base(),
+            Self::TaskHead(p) => p.head(),
+        }
+    }
+
+    /// The task head, when the policy is one.
+    pub fn task_head(&self) -> Option<&TaskHeadPolicy> {
+        match self {
+            Self::TaskHead(p) => Some(p),
+            _ => None,
         }
     }
 
     /// The composition a canonicalised policy is evaluated through (`None`: plain).
     pub fn composition(&self) -> Option<&ComposedSpec> {
         match self {
-            Self::Plain(_) => None,
+            Self::Plain(_) | Self::TaskHead(_) => None,
             Self::Canonicalised(p) => Some(p.lift().spec()),
         }
     }
@@ -86,7 +117,10 @@ impl AnyPolicy {
 
     /// Number of joints.
     pub fn dim(&self) -> usize {
-        self.network().dim()
+        match self {
+            Self::TaskHead(p) => p.dim(),
+            _ => self.network().dim(),
+        }
     }
 
     /// Scratch sized for the policy (allocates; setup only).
@@ -94,11 +128,13 @@ impl AnyPolicy {
         match self {
             Self::Plain(p) => AnyWorkspace::Plain(Box::new(p.workspace())),
             Self::Canonicalised(p) => AnyWorkspace::Canonicalised(Box::new(p.workspace())),
+            Self::TaskHead(p) => AnyWorkspace::TaskHead(Box::new(p.workspace())),
         }
     }
 
     /// `out = π(q, s)` (rad/s or m/s); allocation-free. A canonicalised policy fails where
-    /// a flow of its composition does (a singularity, an invalid condition), leaving `out`
+    /// a flow of its composition does (a singularity, an invalid condition), a task head
+    /// where the horizontal lift is undefined or on an invalid condition, leaving `out`
     /// untouched; a plain one never fails.
     ///
     /// # Panics
@@ -115,8 +151,8 @@ impl AnyPolicy {
     }
 
     /// [`Self::velocity`] with the task point `x = f(q)` (m) supplied by the caller (see
-    /// [`Policy::velocity_at`]); a canonicalised policy evaluates `π₀` at `q₀ ≠ q` and
-    /// ignores `x`.
+    /// [`Policy::velocity_at`]); a canonicalised policy evaluates `π₀` at `q₀ ≠ q` and a
+    /// task head computes `f(q)` with its Jacobian: both ignore `x`.
     pub fn velocity_at(
         &self,
         q: &[f64],
@@ -145,6 +181,7 @@ impl AnyPolicy {
                 Ok(())
             }
             (Self::Canonicalised(p), AnyWorkspace::Canonicalised(w)) => p.velocity(q, s, out, w),
+            (Self::TaskHead(p), AnyWorkspace::TaskHead(w)) => p.velocity(q, s, out, w),
             _ => panic!("AnyPolicy: workspace of another policy kind"),
         }
     }

@@ -22,7 +22,7 @@ use safetensors::tensor::TensorView;
 use safetensors::{Dtype, SafeTensors};
 use serde::{Deserialize, Serialize};
 
-use super::canonical::{TaskFeatureSpec, TaskFeatures};
+use super::canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatures};
 use super::error::PolicyError;
 use super::features::Normalizer;
 use super::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};
@@ -61,6 +61,10 @@ struct Sidecar {
     /// The composition a canonicalised policy is evaluated through (absent: plain).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     canonicalised: Option<ComposedSpec>,
+    /// The group's action on `X` a task-space head is canonicalised by (absent: not a
+    /// task head).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    task_head: Option<CanonicalMap>,
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> PolicyError + '_ {
@@ -130,6 +134,7 @@ impl Policy {
             train_config: self.meta.train_config.clone(),
             task_features: self.task_features().map(|t| t.spec().clone()),
             canonicalised: self.meta.canonicalised.clone(),
+            task_head: self.meta.task_head.clone(),
         };
         let json = serde_json::to_string_pretty(&sidecar).map_err(|e| PolicyError::Sidecar {
             path: side.clone(),
@@ -263,6 +268,7 @@ impl Policy {
             train_config: sc.train_config,
             crate_version: sc.crate_version,
             canonicalised: sc.canonicalised,
+            task_head: sc.task_head,
         };
         let policy =
             Policy::with_task_features(sc.normalizer, mlp, task, meta).map_err(|e| match e {

@@ -213,6 +213,82 @@ impl MlpInference {
         })
     }
 
+    /// One network computing the mean of `members`' outputs, `(1/K) Σ_k MLP_k(x)`
+    /// (an ensemble as a plain MLP): the first layers stacked, the hidden layers block
+    /// diagonal, the output layer `[W_1 … W_K] / K` with the mean bias, so hidden widths
+    /// are `K ×` the members'. Members must share input, output, depth and activation.
+    pub fn average(members: &[MlpInference]) -> Result<Self, String> {
+        let Some(first) = members.first() else {
+            return Err("an average of no networks".into());
+        };
+        let k = members.len();
+        let base = &first.spec;
+        for (m, net) in members.iter().enumerate() {
+            let s = &net.spec;
+            if s.input != base.input
+                || s.output != base.output
+                || s.hidden.len() != base.hidden.len()
+                || s.activation != base.activation
+            {
+                return Err(format!(
+                    "member {m} has layer sizes {:?} ({:?}), member 0 {:?} ({:?})",
+                    s.layer_sizes(),
+                    s.activation,
+                    base.layer_sizes(),
+                    base.activation
+                ));
+            }
+        }
+        let spec = MlpSpec {
+            input: base.input,
+            hidden: (0..base.hidden.len())
+                .map(|l| members.iter().map(|n| n.spec.hidden[l]).sum())
+                .collect(),
+            output: base.output,
+            activation: base.activation,
+        };
+        let last = spec.num_layers() - 1;
+        let (mut weights, mut biases) = (Vec::new(), Vec::new());
+        for l in 0..=last {
+            let (o, i) = spec.layer_shape(l);
+            let mut w = vec![0.0; o * i];
+            let mut b = vec![0.0; o];
+            // Offsets of member n's rows (outputs) and columns (inputs) in the merged layer.
+            let (mut ro, mut co) = (0usize, 0usize);
+            for net in members {
+                let (mo, mi) = net.spec.layer_shape(l);
+                let mw = &net.weights[l];
+                for r in 0..mo {
+                    for c in 0..mi {
+                        let v = mw[r * mi + c];
+                        match (l == 0, l == last) {
+                            // Shared input: rows stacked, all columns.
+                            (true, false) => w[(ro + r) * i + c] = v,
+                            // Shared output: all rows, columns side by side, averaged.
+                            (false, true) => w[r * i + co + c] = v / k as f64,
+                            (true, true) => w[r * i + c] += v / k as f64,
+                            (false, false) => w[(ro + r) * i + co + c] = v,
+                        }
+                    }
+                    if l == last {
+                        b[r] += net.biases[l][r] / k as f64;
+                    } else {
+                        b[ro + r] = net.biases[l][r];
+                    }
+                }
+                if l != last {
+                    ro += mo;
+                }
+                if l != 0 {
+                    co += mi;
+                }
+            }
+            weights.push(w);
+            biases.push(b);
+        }
+        Self::new(spec, weights, biases)
+    }
+
     /// The architecture.
     pub fn spec(&self) -> &MlpSpec {
         &self.spec
@@ -382,6 +458,11 @@ pub struct PolicyMeta {
     /// built from (this network is `π₀`); `None` for a plain `π(q, s)`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub canonicalised: Option<crate::symmetry::transfer::composed::ComposedSpec>,
+    /// For a task-space head `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))`
+    /// ([`super::TaskHeadPolicy`]): the group's action on `X` (this network is `h`, over
+    /// the task coordinates); `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task_head: Option<super::CanonicalMap>,
 }
 
 impl PolicyMeta {
@@ -398,6 +479,7 @@ impl PolicyMeta {
             train_config: None,
             crate_version: env!("CARGO_PKG_VERSION").to_string(),
             canonicalised: None,
+            task_head: None,
         }
     }
 }
@@ -466,6 +548,35 @@ impl Policy {
         };
         p.check(std::path::Path::new("<memory>"))?;
         Ok(p)
+    }
+
+    /// The ensemble of `members` as one policy: the mean of their outputs
+    /// ([`MlpInference::average`]). Members must share the normaliser, the task features
+    /// and the layer sizes' shape; the first member's metadata is kept.
+    pub fn average(members: &[Policy]) -> Result<Self, PolicyError> {
+        let bad = |message: String| PolicyError::Config {
+            field: "ensemble".into(),
+            message,
+        };
+        let first = members
+            .first()
+            .ok_or_else(|| bad("an ensemble of no policies".into()))?;
+        if let Some(k) = members
+            .iter()
+            .position(|p| p.normalizer != first.normalizer || p.task != first.task)
+        {
+            return Err(bad(format!(
+                "member {k} has another normaliser or task features than member 0"
+            )));
+        }
+        let nets: Vec<MlpInference> = members.iter().map(|p| p.mlp.clone()).collect();
+        let mlp = MlpInference::average(&nets).map_err(bad)?;
+        Self::with_task_features(
+            first.normalizer.clone(),
+            mlp,
+            first.task.clone(),
+            first.meta.clone(),
+        )
     }
 
     /// A policy with deterministic pseudo-random weights (tanh, uniform in ±0.2, biases
@@ -706,6 +817,47 @@ mod tests {
         }
         let mlp = MlpInference::new(spec, w, b).unwrap();
         Policy::new(Normalizer::identity(n), mlp, PolicyMeta::default()).unwrap()
+    }
+
+    /// The merged ensemble computes the mean of its members' outputs (each member
+    /// evaluated on its own), for one, two and three hidden layers of unequal widths.
+    #[test]
+    fn average_of_networks_is_the_mean_of_their_outputs() {
+        for hidden in [vec![5], vec![6, 4], vec![3, 7, 5]] {
+            let members: Vec<Policy> = (0..3u64)
+                .map(|k| Policy::synthetic(4, Vec::new(), &hidden, 11 + k))
+                .collect();
+            let avg = Policy::average(&members).unwrap();
+            assert_eq!(avg.mlp().spec().hidden[0], 3 * hidden[0]);
+            let mut ws = avg.workspace();
+            let mut wss: Vec<_> = members.iter().map(Policy::workspace).collect();
+            let (mut out, mut one) = (vec![0.0; 4], vec![0.0; 4]);
+            for t in 0..20 {
+                let q: Vec<f64> = (0..4).map(|j| (0.3 * t as f64 + j as f64).sin()).collect();
+                let s = Condition {
+                    theta: 0.1 * t as f64,
+                    scale: 0.8,
+                    reflection: if t % 2 == 0 { 1 } else { -1 },
+                };
+                avg.velocity(&q, &s, &mut out, &mut ws);
+                let mut mean = [0.0; 4];
+                for (p, w) in members.iter().zip(&mut wss) {
+                    p.velocity(&q, &s, &mut one, w);
+                    for j in 0..4 {
+                        mean[j] += one[j] / 3.0;
+                    }
+                }
+                for j in 0..4 {
+                    assert!(
+                        (out[j] - mean[j]).abs() < 1e-12,
+                        "{hidden:?}: {out:?} vs {mean:?}"
+                    );
+                }
+            }
+        }
+        let other = Policy::synthetic(3, Vec::new(), &[5], 1);
+        let one = Policy::synthetic(4, Vec::new(), &[5], 1);
+        assert!(Policy::average(&[one, other]).is_err());
     }
 
     #[test]

@@ -33,6 +33,7 @@ pub mod features;
 pub mod io;
 pub mod mlp;
 pub mod task_fk;
+pub mod task_head;
 pub mod train;
 
 pub use any::{AnyPolicy, AnyWorkspace};
@@ -47,4 +48,7 @@ pub use mlp::{
     PolicyWorkspace,
 };
 pub use task_fk::CandleFk;
+pub use task_head::{
+    task_coordinate_names, task_path_trajectory, TaskHeadPolicy, TaskHeadWorkspace,
+};
 pub use train::{train, train_with_features, CandleMlp, LrSchedule, TrainConfig, TrainReport};

@@ -175,6 +175,11 @@ pub struct TrainConfig {
     /// [`train_with_features`].
     #[serde(default)]
     pub task_features: bool,
+    /// Members of an averaged ensemble (≥ 1): trained from seeds `seed`, `seed + 1`, … on
+    /// the same data and merged into one network computing their mean output
+    /// ([`MlpInference::average`]; hidden layers `ensemble ×` as wide).
+    #[serde(default = "d_one")]
+    pub ensemble: usize,
 }
 
 fn d_one() -> usize {
@@ -201,6 +206,7 @@ impl Default for TrainConfig {
             weight_decay: 0.0,
             pad_end: false,
             task_features: false,
+            ensemble: 1,
         }
     }
 }
@@ -255,6 +261,9 @@ impl TrainConfig {
                     format!("{f} must be positive"),
                 );
             }
+        }
+        if self.ensemble == 0 {
+            return bad("ensemble", "must be at least 1".into());
         }
         if self.batch_size == 0 {
             return bad("batch_size", "must be at least 1".into());
@@ -735,6 +744,48 @@ pub fn train(
     train_with_features(data, config, meta, None, progress)
 }
 
+/// [`train_with_features`] for `config.ensemble > 1`: one member per seed, progress
+/// reported over all members' iterations, merged by [`Policy::average`].
+fn train_ensemble(
+    data: &[(&JointTrajectory, Condition)],
+    config: &TrainConfig,
+    meta: PolicyMeta,
+    features: Option<TaskFeatures>,
+    mut progress: impl FnMut(usize, f64),
+) -> Result<(Policy, TrainReport), PolicyError> {
+    let mut members = Vec::with_capacity(config.ensemble);
+    let mut report: Option<TrainReport> = None;
+    for k in 0..config.ensemble {
+        let member = TrainConfig {
+            ensemble: 1,
+            seed: config.seed.wrapping_add(k as u64),
+            ..config.clone()
+        };
+        let offset = k * config.iterations;
+        // A `dyn` callback: one instantiation, however the caller's closure is typed.
+        let each: &mut dyn FnMut(usize, f64) = &mut |it, l| progress(offset + it, l);
+        let (p, r) = train_with_features(data, &member, meta.clone(), features.clone(), each)?;
+        members.push(p);
+        report = Some(match report {
+            None => r,
+            Some(acc) => TrainReport {
+                initial_loss: acc.initial_loss + r.initial_loss,
+                final_loss: acc.final_loss + r.final_loss,
+                iterations: acc.iterations + r.iterations,
+                seconds: acc.seconds + r.seconds,
+                ..acc
+            },
+        });
+    }
+    let mut policy = Policy::average(&members)?;
+    policy.meta.train_config = Some(config.clone());
+    let mut report = report.expect("ensemble ≥ 2 members");
+    // Mean losses of the members (each on its own evaluation batch).
+    report.initial_loss /= config.ensemble as f64;
+    report.final_loss /= config.ensemble as f64;
+    Ok((policy, report))
+}
+
 /// [`train()`] for a policy with canonical task-space features (`features` with
 /// [`TrainConfig::task_features`]; their normalisation is fitted on `data` here).
 pub fn train_with_features(
@@ -746,6 +797,9 @@ pub fn train_with_features(
 ) -> Result<(Policy, TrainReport), PolicyError> {
     config.validate()?;
     check_data(data)?;
+    if config.ensemble > 1 {
+        return train_ensemble(data, config, meta, features, progress);
+    }
     if config.task_features != features.is_some() {
         return Err(PolicyError::Data {
             message: format!(

@@ -146,9 +146,15 @@ impl NodeConfig {
     /// The conditions the node accepts for `policy`: its trained [`ConditionDomain`], or
     /// `None` (every valid condition) with `accept_untrained_conditions` or when the policy
     /// records no training; an error names a malformed training record.
-    /// A canonicalised policy has no box: it is checked for feasibility instead.
+    /// A canonicalised policy has no box: it is checked for feasibility instead; nor has a
+    /// task head of the whole group (reflection, rotation and scaling), exactly
+    /// equivariant in `X` for every condition whose drawing the arms reach.
     pub fn condition_domain(&self, policy: &AnyPolicy) -> Result<Option<ConditionDomain>, String> {
-        if self.accept_untrained_conditions || policy.composition().is_some() {
+        let whole_group = policy.task_head().is_some_and(|h| {
+            let m = h.map();
+            m.reflection.is_some() && m.rotation.is_some() && m.scaling.is_some()
+        });
+        if self.accept_untrained_conditions || policy.composition().is_some() || whole_group {
             return Ok(None);
         }
         ConditionDomain::from_meta(&policy.network().meta)
@@ -911,7 +917,7 @@ fn feasibility(policy: &AnyPolicy, limits: &[JointLimits]) -> Option<ConditionFe
         AnyPolicy::Canonicalised(p) => {
             Some(ConditionFeasibility::new((**p).clone(), limits.to_vec()))
         }
-        AnyPolicy::Plain(_) => None,
+        AnyPolicy::Plain(_) | AnyPolicy::TaskHead(_) => None,
     }
 }
 
@@ -996,7 +1002,7 @@ impl NodeCore {
     ) -> Result<Self, NodeError> {
         cfg.validate()?;
         let policy = match policy.into() {
-            AnyPolicy::Plain(p) if p.meta.canonicalised.is_some() => {
+            AnyPolicy::Plain(p) if p.meta.canonicalised.is_some() || p.meta.task_head.is_some() => {
                 AnyPolicy::new(*p, &kin).map_err(|message| NodeError::Policy { message })?
             }
             other => other,
@@ -1008,7 +1014,11 @@ impl NodeCore {
             });
         }
         let names = &policy.network().meta.joint_names;
-        if !names.is_empty() && names.as_slice() != kin.joint_names() {
+        // A task head's network is named by task coordinates, checked when it was built.
+        if policy.task_head().is_none()
+            && !names.is_empty()
+            && names.as_slice() != kin.joint_names()
+        {
             return Err(NodeError::Policy {
                 message: format!(
                     "policy joints {:?} differ from the robot's {:?}",

@@ -14,7 +14,6 @@ use std::time::{Duration, Instant};
 use crossym::config::Config;
 use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::{score, EvalConfig};
-use crossym::policy::Policy;
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
 use crossym::ros::{msg, StatusCode};
 use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
@@ -178,7 +177,13 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
         })
         .collect();
     let node_cfg = cfg.node.clone().unwrap();
-    let policy = Policy::load(cfg.resolve(node_cfg.policy.as_ref().unwrap())).unwrap();
+    // The node's policy as the node loads it (a task head, a canonicalised or a plain one).
+    let policy = crossym::pipeline::load_any_policy(
+        &cfg,
+        &cfg.load_robot().unwrap().kinematics,
+        &cfg.resolve(node_cfg.policy.as_ref().unwrap()),
+    )
+    .unwrap();
     let summary = dir.join("mock.json");
     let cfg_s = cfg_path.to_str().unwrap();
     let (hw_log, node_log) = (dir.join("mock.log"), dir.join("node.log"));
@@ -344,9 +349,18 @@ fn independent_cyclonedds_peer() {
     let dir = tmp_dir("peer");
     let domain = 63u16;
     let node_log = dir.join("node.log");
+    // The joint-space π_MRT: it records a trained box, whose rejections the peer checks
+    // (the letters' default task head accepts every valid condition).
+    let joint = common::path("data/policies/pi_mrt_planar.safetensors");
     let mut node = spawn(
         "node",
-        &["node", "--config", letters_config().to_str().unwrap()],
+        &[
+            "node",
+            "--config",
+            letters_config().to_str().unwrap(),
+            "--policy",
+            joint.to_str().unwrap(),
+        ],
         domain,
         &node_log,
     );

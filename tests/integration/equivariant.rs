@@ -641,3 +641,72 @@ fn density_curve_of_the_canonicalised_policy_is_flat() {
     assert!(!plain.status.success());
     assert!(String::from_utf8_lossy(&plain.stderr).contains("not a canonicalised policy"));
 }
+
+/// Task-space heads (issue 17): `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))`. Under any
+/// condition the task point of the closed loop is `g ·` the identity closed loop's task
+/// point, checked against the task-space action of the configured symmetries (not the
+/// head's own map), from `Φ_g(q_start)` (a configuration drawing `g · f(q_start)`), with
+/// RK4 at 0.01 s for 2 s; the identity closed loop runs the same head.
+#[test]
+fn task_head_closed_loop_is_g_times_the_identity_one_in_task_space() {
+    use crossym::policy::AnyPolicy;
+    let (cfg, robot, demos) = common::task("letters.toml");
+    let kin = &robot.kinematics;
+    let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries).unwrap();
+    let file = common::path("data/policies/pi_mrt_head_planar.safetensors");
+    let any = crossym::pipeline::load_any_policy(&cfg, kin, &file).unwrap();
+    let AnyPolicy::TaskHead(head) = &any else {
+        panic!("{} is not a task head", file.display())
+    };
+    let lift = ComposedLift::from_symmetries(
+        kin,
+        &built,
+        &cfg.composition.order,
+        LiftIntegrator::Adaptive {
+            settings: FlowSettings {
+                rtol: 1e-11,
+                atol: 1e-13,
+                ..FlowSettings::default()
+            },
+        },
+    )
+    .unwrap();
+    let q_start = demos.demos[0].q(0).to_vec();
+    let reach = demos.demos[0]
+        .x
+        .chunks(2)
+        .map(|p| p[0].hypot(p[1]))
+        .fold(0.0, f64::max);
+    let (mut hws, mut kws, mut lws) = (head.workspace(), kin.workspace(), lift.workspace());
+    for s in &CONDITIONS {
+        let mut q_s = vec![0.0; 8];
+        let mut scratch = vec![0.0; 8];
+        lift.act_with_differential(s, &q_start, &[0.0; 8], &mut q_s, &mut scratch, &mut lws)
+            .unwrap();
+        let mut q_e = q_start.clone();
+        let mut gap: f64 = 0.0;
+        let mut travelled: f64 = 0.0;
+        let x0 = kin.forward(&q_e, &mut kws).as_slice().to_vec();
+        for k in 0..=200 {
+            let x_e = kin.forward(&q_e, &mut kws).as_slice().to_vec();
+            let x_s = kin.forward(&q_s, &mut kws).as_slice().to_vec();
+            gap = gap.max(common::dist(&x_s, &task_action(&built, s, &x_e)));
+            travelled = travelled.max(common::dist(&x_e, &x0));
+            if k == 200 {
+                break;
+            }
+            step(&mut q_e, 0.01, true, &mut |q, v| {
+                head.velocity(q, &Condition::IDENTITY, v, &mut hws)
+                    .expect("regular")
+            });
+            step(&mut q_s, 0.01, true, &mut |q, v| {
+                head.velocity(q, s, v, &mut hws).expect("regular")
+            });
+        }
+        println!(
+            "{s:?}: task-space gap {gap:.3e} over a motion of {travelled:.3} (reach {reach:.2})"
+        );
+        assert!(travelled > 0.1 * reach, "{s:?}: the head barely moved");
+        assert!(gap <= 1e-6 * reach, "{s:?}: gap {gap}");
+    }
+}

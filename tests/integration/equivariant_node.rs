@@ -108,7 +108,7 @@ fn setup(tag: &str) -> Setup {
     let text = std::fs::read_to_string(root.join("config/letters.toml")).unwrap();
     let mut text = text.replace("\"../", &format!("\"{}/", root.display()));
     let shipped = format!(
-        "policy = \"{}/data/policies/pi_mrt_planar.safetensors\"",
+        "policy = \"{}/data/policies/pi_mrt_head_planar.safetensors\"",
         root.display()
     );
     assert!(

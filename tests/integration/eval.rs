@@ -251,6 +251,8 @@ fn rollout_cli_writes_the_library_rollout_and_scores_it_as_eval() {
         ])
         .arg("--config")
         .arg(&config)
+        .arg("--policy")
+        .arg(common::path("data/policies/pi_mrt_planar.safetensors"))
         .arg("--out")
         .arg(&csv)
         .arg("--plot")
@@ -374,6 +376,8 @@ fn rollout_at_another_step_is_scored_by_time() {
         ])
         .arg("--config")
         .arg(&config)
+        .arg("--policy")
+        .arg(common::path("data/policies/pi_mrt_planar.safetensors"))
         .arg("--out")
         .arg(&csv),
     );

@@ -778,10 +778,14 @@ fn demo_refuses_a_condition_the_policy_was_not_trained_on() {
     // Before any process starts: a clear usage error (exit 2), nothing written.
     let out_dir = common::temp_dir("demo-untrained").join("out");
     let config = common::path("config/letters.toml");
+    // The joint-space π_MRT records its trained box (the letters' default task head has none).
+    let joint = common::path("data/policies/pi_mrt_planar.safetensors");
     let out = common::crossym([
         "demo".as_ref(),
         "--config".as_ref(),
         config.as_os_str(),
+        "--policy".as_ref(),
+        joint.as_os_str(),
         "--condition".as_ref(),
         "0:1:1".as_ref(),
         "--condition".as_ref(),

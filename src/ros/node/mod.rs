@@ -356,6 +356,11 @@ fn startup_summary(
                               (canonicalised policy)"
                     .to_string(),
                 (Some(d), false) => format!("the trained box, {}", d.describe()),
+                (None, false) if core.policy().task_head().is_some() => {
+                    "any valid (task-space head of the whole group: equivariant in task space \
+                     wherever the arms reach the drawing)"
+                        .to_string()
+                }
                 (None, false) => {
                     "any valid (accept_untrained_conditions, or no training record)".to_string()
                 }

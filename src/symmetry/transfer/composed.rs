@@ -78,6 +78,21 @@ pub enum ConditionProblem {
     Reflection,
 }
 
+impl ConditionProblem {
+    /// What is wrong with `s`, if anything (allocation-free).
+    pub fn of(s: &Condition) -> Option<Self> {
+        if !(s.theta.is_finite() && s.scale.is_finite()) {
+            Some(Self::NonFinite)
+        } else if s.scale <= 0.0 {
+            Some(Self::NonPositiveScale)
+        } else if !(s.reflection == 1 || s.reflection == -1) {
+            Some(Self::Reflection)
+        } else {
+            None
+        }
+    }
+}
+
 impl std::fmt::Display for ConditionProblem {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
@@ -134,6 +149,13 @@ pub enum ComposedError {
     NoScaling {
         /// The scale asked for.
         scale: f64,
+    },
+    /// The horizontal lift `J⁺(q)` is undefined at `q` (`J M⁻¹ Jᵀ` singular or below the
+    /// manipulability threshold): a task-space head cannot be lifted there.
+    #[error("the horizontal lift is undefined at q (manipulability {manipulability:.2e})")]
+    SingularLift {
+        /// `√det(J M⁻¹ Jᵀ)` at `q`.
+        manipulability: f64,
     },
     /// The condition is not finite, `λ ≤ 0` or `σ ∉ {±1}`.
     #[error("invalid condition: {problem}")]
@@ -457,16 +479,7 @@ impl ComposedLift {
 
     /// Validates `s` (allocation-free); `θ` is used wrapped to `(−π, π]`.
     fn check(&self, s: &Condition) -> Result<(), ComposedError> {
-        let problem = if !(s.theta.is_finite() && s.scale.is_finite()) {
-            Some(ConditionProblem::NonFinite)
-        } else if s.scale <= 0.0 {
-            Some(ConditionProblem::NonPositiveScale)
-        } else if !(s.reflection == 1 || s.reflection == -1) {
-            Some(ConditionProblem::Reflection)
-        } else {
-            None
-        };
-        if let Some(problem) = problem {
+        if let Some(problem) = ConditionProblem::of(s) {
             return Err(ComposedError::Condition { problem });
         }
         if s.scale != 1.0 && self.spec.task.scaling.is_none() {
