@@ -54,8 +54,10 @@ impl From<TaskHeadPolicy> for AnyPolicy {
 }
 
 impl AnyPolicy {
-    /// The policy a file holds: canonicalised through `kin` when its sidecar records a
-    /// composition ([`super::PolicyMeta::canonicalised`]), plain otherwise.
+    /// The policy a file holds: a task head lifted through `kin` when its sidecar records
+    /// a task-space map ([`super::PolicyMeta::task_head`]), canonicalised through `kin`
+    /// when it records a composition ([`super::PolicyMeta::canonicalised`]), plain
+    /// otherwise.
     pub fn new(policy: Policy, kin: &Kinematics) -> Result<Self, String> {
         if let Some(map) = policy.meta.task_head.clone() {
             if policy.meta.canonicalised.is_some() {

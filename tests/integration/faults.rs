@@ -163,33 +163,44 @@ fn python_has_cyclonedds() -> bool {
 }
 
 /// One run of the independent robot: the seed (condition order, random choices), which
-/// joint is corrupted, which joint's approach to which bound starts the faults, and the
-/// warm-up before it may (s).
+/// joint is corrupted, which joint's approach to which bound starts the faults, the
+/// warm-up before it may (s) and the condition switch period (s).
 struct RobotRun {
     seed: u64,
     fault_joint: &'static str,
     trigger_joint: &'static str,
     bound: &'static str,
     warmup_s: f64,
+    switch_s: f64,
 }
 
-/// Starts a node on `t`'s config in `domain`, runs `runs` of the fault robot against it one
-/// after the other, stops the node; the robots' JSON reports.
-fn robot_runs(t: &Tight, domain: u16, runs: &[RobotRun]) -> Vec<(String, Value)> {
+/// Starts a node on `t`'s config in `domain` (with `policy` instead of the config's when
+/// given), runs `runs` of the fault robot against it one after the other, stops the node;
+/// the robots' JSON reports.
+fn robot_runs(
+    t: &Tight,
+    domain: u16,
+    policy: Option<&str>,
+    runs: &[RobotRun],
+) -> Vec<(String, Value)> {
     let node_log = t.dir.join(format!("node-{domain}.log"));
-    let mut node = Proc::spawn(
-        crossym_cmd(&["node", "--config", t.config.to_str().unwrap()]),
-        "node",
-        domain,
-        &node_log,
-    );
+    let mut args = vec!["node", "--config", t.config.to_str().unwrap()];
+    if let Some(p) = policy {
+        args.extend(["--policy", p]);
+    }
+    let mut node = Proc::spawn(crossym_cmd(&args), "node", domain, &node_log);
     let script = common::root().join("tests/peer/fault_robot.py");
     let rest: Vec<String> = t.rest.iter().map(|x| format!("{x:?}")).collect();
     let mut reports = Vec::new();
     for r in runs {
         let label = format!(
-            "domain {domain} seed {} fault {} trigger {} {} after {} s",
-            r.seed, r.fault_joint, r.trigger_joint, r.bound, r.warmup_s
+            "domain {domain} ({}) seed {} fault {} trigger {} {} after {} s",
+            policy.map_or("config's policy", |_| "--policy"),
+            r.seed,
+            r.fault_joint,
+            r.trigger_joint,
+            r.bound,
+            r.warmup_s
         );
         let json = t.dir.join(format!("robot-{domain}-{}.json", r.seed));
         let log = t.dir.join(format!("robot-{domain}-{}.log", r.seed));
@@ -205,6 +216,7 @@ fn robot_runs(t: &Tight, domain: u16, runs: &[RobotRun]) -> Vec<(String, Value)>
             .args(["--trigger-joint", r.trigger_joint])
             .args(["--bound", r.bound])
             .args(["--warmup-s", &r.warmup_s.to_string()])
+            .args(["--switch-s", &r.switch_s.to_string()])
             .args(["--timeout", "20", "--json"])
             .arg(&json);
         let mut p = Proc::spawn(cmd, "fault_robot.py", domain, &log);
@@ -234,37 +246,47 @@ fn robot_runs(t: &Tight, domain: u16, runs: &[RobotRun]) -> Vec<(String, Value)>
 }
 
 /// The independent Cyclone DDS robot, faults injected while a joint moves toward a
-/// tightened bound: no position beyond the limits, no non-finite command, in every run.
+/// tightened bound, against the default task-space head and the joint-space π_MRT: no
+/// position beyond the limits, no non-finite command, in every run.
 #[test]
 fn independent_robot_input_faults_at_tight_limits() {
     if !python_has_cyclonedds() {
         return;
     }
     let t = tightened("robot", "rate_hz = 200.0\n");
-    // Two nodes in parallel (own domains), each driving three robot runs in turn: the first
-    // approach from rest, approaches after condition switches, chosen joints and bounds, the
-    // corrupted joint being the moving one or another.
-    let run = |seed, fault_joint, trigger_joint, bound, warmup_s| RobotRun {
+    let run = |seed, fault_joint, trigger_joint, bound, warmup_s, switch_s| RobotRun {
         seed,
         fault_joint,
         trigger_joint,
         bound,
         warmup_s,
+        switch_s,
     };
-    let a = [
-        run(1, "random", "any", "any", 0.5),
-        run(7, "right_joint2", "any", "any", 2.5),
-        run(9, "right_joint4", "left_joint2", "lower", 0.5),
+    // Two nodes in parallel (own domains), each driving three robot runs in turn, the
+    // corrupted joint being the moving one or another.
+    // The config's default policy, the task-space head: its lift ignores the tightened
+    // limits, so joints run into their bounds within the first seconds after a condition
+    // and stay pinned (2026-12-03: with 2 s switches and these warm-ups, 1 of 6 runs saw an
+    // approach at >= 0.3 rad/s; with a 2.5 s warm-up and 1 s switches, 2 of 5): the faults
+    // start at the first approach of any joint, conditions switch every second.
+    let head = [
+        run(1, "random", "any", "any", 0.5, 1.0),
+        run(7, "right_joint2", "any", "any", 0.5, 1.0),
+        run(9, "right_joint4", "any", "lower", 0.5, 1.0),
     ];
-    let b = [
-        run(2, "left_joint1", "left_joint1", "upper", 0.5),
-        run(8, "random", "any", "any", 2.5),
-        run(9, "left_joint3", "right_joint2", "lower", 0.5),
+    // The joint-space π_MRT, which sweeps its joints through the range: approaches after
+    // condition switches, chosen joints and bounds.
+    let joint = [
+        run(2, "left_joint1", "left_joint1", "upper", 0.5, 2.0),
+        run(8, "random", "any", "any", 2.5, 2.0),
+        run(9, "left_joint3", "right_joint2", "lower", 0.5, 2.0),
     ];
+    let joint_policy = common::root().join("data/policies/pi_mrt_planar.safetensors");
+    let joint_policy = joint_policy.to_str().unwrap();
     let t0 = Instant::now();
     let reports: Vec<(String, Value)> = std::thread::scope(|s| {
-        let ha = s.spawn(|| robot_runs(&t, 81, &a));
-        let hb = s.spawn(|| robot_runs(&t, 82, &b));
+        let ha = s.spawn(|| robot_runs(&t, 81, None, &head));
+        let hb = s.spawn(|| robot_runs(&t, 82, Some(joint_policy), &joint));
         let mut r = ha.join().unwrap();
         r.extend(hb.join().unwrap());
         r
