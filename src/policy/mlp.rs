@@ -160,12 +160,59 @@ impl MlpWorkspace {
     }
 }
 
+/// Column width a diagonal block must be a multiple of to be packed: the widest
+/// accumulator count of [`dot`]'s kernels, so that a block's dot product accumulates the
+/// same terms in the same lanes as the dense row (whose other terms are exact zeros) and
+/// the packed forward is bit-identical to the dense one.
+const BLOCK_ALIGN: usize = 16;
+
+/// A block-diagonal layer stored compactly: `blocks` diagonal blocks of `[o/blocks ×
+/// i/blocks]`, row `r` of the layer reading only its block's columns.
+#[derive(Debug, Clone, PartialEq)]
+struct PackedLayer {
+    /// Number of diagonal blocks (≥ 2).
+    blocks: usize,
+    /// Row-major `[o × i/blocks]`: row `r` holds its block's columns.
+    weights: Vec<f64>,
+}
+
 /// The network's weights as plain `f64` row-major vectors, with an allocation-free forward.
+///
+/// A layer whose weight matrix is block diagonal with exact zeros off the blocks (the
+/// hidden layers of [`MlpInference::average`]) is also stored packed, and the forward pass
+/// reads only its blocks: the same result bit for bit, a `K`-th of the multiply-adds and of
+/// the weights in cache.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MlpInference {
     spec: MlpSpec,
     weights: Vec<Vec<f64>>,
     biases: Vec<Vec<f64>>,
+    /// Per layer: its packed block-diagonal form, `None` for a dense layer.
+    packed: Vec<Option<PackedLayer>>,
+}
+
+/// The finest block-diagonal structure of the row-major `[o × i]` matrix `w`: the largest
+/// `K ≥ 2` dividing `o` and `i`, with `i/K` a multiple of [`BLOCK_ALIGN`], such that every
+/// entry off the `K` diagonal blocks is exactly zero; `None` when there is none.
+fn find_blocks(w: &[f64], o: usize, i: usize) -> Option<PackedLayer> {
+    let off_blocks_zero = |k: usize| {
+        let (bo, bi) = (o / k, i / k);
+        (0..o).all(|r| {
+            let b = r / bo;
+            let row = &w[r * i..(r + 1) * i];
+            row[..b * bi].iter().all(|&v| v == 0.0) && row[(b + 1) * bi..].iter().all(|&v| v == 0.0)
+        })
+    };
+    let k = (2..=o.min(i) / BLOCK_ALIGN)
+        .rev()
+        .find(|&k| o % k == 0 && i % k == 0 && (i / k) % BLOCK_ALIGN == 0 && off_blocks_zero(k))?;
+    let (bo, bi) = (o / k, i / k);
+    let mut weights = Vec::with_capacity(o * bi);
+    for r in 0..o {
+        let b = r / bo;
+        weights.extend_from_slice(&w[r * i + b * bi..r * i + (b + 1) * bi]);
+    }
+    Some(PackedLayer { blocks: k, weights })
 }
 
 impl MlpInference {
@@ -206,10 +253,17 @@ impl MlpInference {
                 return Err(format!("layer {k}: bias[{j}] is not finite"));
             }
         }
+        let packed = (0..l)
+            .map(|k| {
+                let (o, i) = spec.layer_shape(k);
+                find_blocks(&weights[k], o, i)
+            })
+            .collect();
         Ok(Self {
             spec,
             weights,
             biases,
+            packed,
         })
     }
 
@@ -304,6 +358,21 @@ impl MlpInference {
         &self.biases[l]
     }
 
+    /// The same network with every layer dense: the reference of the packed forward.
+    #[cfg(test)]
+    fn dense_only(&self) -> Self {
+        Self {
+            packed: vec![None; self.packed.len()],
+            ..self.clone()
+        }
+    }
+
+    /// Number of diagonal blocks the forward pass uses for layer `l`: `K ≥ 2` when its
+    /// weights are block diagonal (exact zeros elsewhere) and stored packed, 1 when dense.
+    pub fn layer_blocks(&self, l: usize) -> usize {
+        self.packed[l].as_ref().map_or(1, |p| p.blocks)
+    }
+
     /// A workspace sized for this network.
     pub fn workspace(&self) -> MlpWorkspace {
         MlpWorkspace::new(&self.spec)
@@ -350,11 +419,15 @@ impl MlpInference {
     /// `y = φ(W_l x + b_l)` (or without `φ` for the output layer).
     #[inline]
     fn layer(&self, l: usize, x: &[f64], y: &mut [f64], activate: bool) {
-        let cols = x.len();
-        let w = &self.weights[l];
         let bias = &self.biases[l];
+        let (w, cols, rows_per_block) = match &self.packed[l] {
+            Some(p) => (&p.weights[..], x.len() / p.blocks, y.len() / p.blocks),
+            None => (&self.weights[l][..], x.len(), y.len()),
+        };
         for (r, yr) in y.iter_mut().enumerate() {
-            let v = bias[r] + dot(&w[r * cols..(r + 1) * cols], x);
+            // Dense: the whole input (one block); packed: row r's block of it.
+            let c0 = (r / rows_per_block) * cols;
+            let v = bias[r] + dot(&w[r * cols..(r + 1) * cols], &x[c0..c0 + cols]);
             *yr = if activate {
                 self.spec.activation.apply(v)
             } else {
@@ -858,6 +931,67 @@ mod tests {
         let other = Policy::synthetic(3, Vec::new(), &[5], 1);
         let one = Policy::synthetic(4, Vec::new(), &[5], 1);
         assert!(Policy::average(&[one, other]).is_err());
+    }
+
+    #[test]
+    fn block_diagonal_layers_are_packed_and_give_the_dense_result_bit_for_bit() {
+        // (members, member hidden widths, expected blocks per layer).
+        for (k, hidden, blocks) in [
+            (4, vec![64, 64], vec![1, 4, 1]),
+            (3, vec![16, 32, 16], vec![1, 3, 3, 1]),
+            (2, vec![8, 8], vec![1, 1, 1]), // blocks of 8 columns: not packed
+        ] {
+            let members: Vec<MlpInference> = (0..k as u64)
+                .map(|m| {
+                    Policy::synthetic(6, Vec::new(), &hidden, 40 + m)
+                        .mlp()
+                        .clone()
+                })
+                .collect();
+            let avg = MlpInference::average(&members).unwrap();
+            let found: Vec<usize> = (0..avg.spec().num_layers())
+                .map(|l| avg.layer_blocks(l))
+                .collect();
+            assert_eq!(found, blocks, "{k} × {hidden:?}");
+            assert_forward_bitwise_dense(&avg);
+        }
+        // An entry off the four 64-blocks of layer 1 but inside one of two 128-blocks:
+        // packed as two blocks; one outside both: dense.
+        let members: Vec<MlpInference> = (0..4u64)
+            .map(|m| {
+                Policy::synthetic(6, Vec::new(), &[64, 64], 40 + m)
+                    .mlp()
+                    .clone()
+            })
+            .collect();
+        let avg = MlpInference::average(&members).unwrap();
+        for (col, blocks) in [(100, 2), (200, 1)] {
+            let mut weights: Vec<Vec<f64>> = (0..3).map(|l| avg.weight(l).to_vec()).collect();
+            let biases: Vec<Vec<f64>> = (0..3).map(|l| avg.bias(l).to_vec()).collect();
+            assert_eq!(weights[1][col], 0.0);
+            weights[1][col] = 1e-3; // row 0, column `col`
+            let net = MlpInference::new(avg.spec().clone(), weights, biases).unwrap();
+            assert_eq!(net.layer_blocks(1), blocks, "entry at column {col}");
+            assert_forward_bitwise_dense(&net);
+        }
+    }
+
+    /// `net`'s forward equals, bit for bit, the forward with every layer dense, on inputs
+    /// that drive the tanh layers through their range.
+    fn assert_forward_bitwise_dense(net: &MlpInference) {
+        let dense = net.dense_only();
+        let (mut ws, mut wd) = (net.workspace(), dense.workspace());
+        let n_out = net.spec().output;
+        let (mut a, mut b) = (vec![0.0; n_out], vec![0.0; n_out]);
+        for t in 0..50 {
+            let x: Vec<f64> = (0..net.spec().input)
+                .map(|j| 3.0 * (0.37 * t as f64 + 1.3 * j as f64).sin())
+                .collect();
+            net.forward(&x, &mut a, &mut ws);
+            dense.forward(&x, &mut b, &mut wd);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a), bits(&b), "input {t}: {a:?} vs {b:?}");
+        }
     }
 
     #[test]

@@ -20,8 +20,8 @@
 //! factors of `s` it lacks: it behaves as a policy that never saw them.
 //!
 //! Evaluation costs one FK with Jacobian, one `m × m` Cholesky factor and solve, and the
-//! `m`-input network — less than a plain `π(q, s)` with task features — and allocates
-//! nothing.
+//! `m`-input network (an ensemble's block-diagonal hidden layers run packed, see
+//! [`super::MlpInference`]), and allocates nothing.
 
 use super::canonical::CanonicalMap;
 use super::mlp::{Policy, PolicyWorkspace};

@@ -658,6 +658,9 @@ fn task_head_closed_loop_is_g_times_the_identity_one_in_task_space() {
     let AnyPolicy::TaskHead(head) = &any else {
         panic!("{} is not a task head", file.display())
     };
+    // The shipped head is a four-seed ensemble: its block-diagonal hidden layer runs packed
+    // (the golden bag, recorded dense, replays bit for bit through it: bag.rs).
+    assert_eq!(head.head().mlp().layer_blocks(1), 4);
     let lift = ComposedLift::from_symmetries(
         kin,
         &built,
