@@ -204,6 +204,15 @@ impl Config {
         Ok(cfg)
     }
 
+    /// The joint posture (rad or m, controlled joints in order) a simulated robot starts
+    /// from: `[mock_hw] initial_q`, else `[check] reference_q`; `None` when neither is set.
+    pub fn start_q(&self) -> Option<Vec<f64>> {
+        self.mock_hw
+            .as_ref()
+            .and_then(|m| m.initial_q.clone())
+            .or_else(|| self.check.reference_q.clone())
+    }
+
     /// Resolves a path given in this config file (relative to the file's directory).
     pub fn resolve(&self, p: &Path) -> PathBuf {
         if p.is_absolute() {

@@ -164,11 +164,12 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
             n.period_s * 1e3
         );
     }
-    // A configuration inside the limits: the mock hardware's start, else mid-range.
+    // A configuration inside the limits where the policy runs: the mock hardware's start
+    // (`[mock_hw] initial_q`, else `[check] reference_q`), else mid-range. (Mid-range is
+    // q = 0 on the planar arms: stretched out, where a task head's lift is singular and
+    // the node commands zero without running its policy.)
     let q: Vec<f64> = cfg
-        .mock_hw
-        .as_ref()
-        .and_then(|m| m.initial_q.clone())
+        .start_q()
         .filter(|q| q.len() == kin.dof())
         .unwrap_or_else(|| {
             kin.limits()

@@ -145,8 +145,7 @@ pub fn mock_hw(
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
     let q0 = initial_q
-        .or_else(|| hw_cfg.initial_q.clone())
-        .or_else(|| cfg.check.reference_q.clone())
+        .or_else(|| cfg.start_q())
         .unwrap_or_else(|| vec![0.0; kin.dof()]);
     let mode = match command {
         Some(c) => parse_output(c).map_err(anyhow::Error::msg)?,

@@ -477,7 +477,8 @@ pub enum StatusCode {
     /// Shutting down: the final zero / hold command was produced.
     Shutdown = 20,
     /// A canonicalised policy's flows failed from the current state (the robot moved to
-    /// where the accepted condition is singular): zero velocity, filtered.
+    /// where the accepted condition is singular), or a task-space head's lift `J⁺` is
+    /// singular there (a stretched or folded arm): zero velocity, filtered.
     ConditionInfeasible = 21,
 }
 
@@ -527,7 +528,7 @@ impl StatusCode {
             StatusCode::PolicyNonfinite => "policy output not finite: replaced by 0",
             StatusCode::Shutdown => "shutting down: final zero/hold command",
             StatusCode::ConditionInfeasible => {
-                "condition infeasible from the current state (singular flow): zero velocity"
+                "policy undefined at the current state (singular flow or lift): zero velocity"
             }
         }
     }

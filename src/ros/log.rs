@@ -276,7 +276,7 @@ impl StatusWatch {
                 "condition_infeasible",
                 s.infeasible_ticks,
                 prev.infeasible_ticks,
-                "the accepted condition's lifted flows fail from the current joint state (zero velocity)",
+                "the policy is undefined at the current joint state under the accepted condition (a canonicalised policy's flows fail, or a task-space head's lift J⁺ is singular): zero velocity",
             ),
         ] {
             let new = all.saturating_sub(before);

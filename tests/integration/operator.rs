@@ -306,6 +306,13 @@ fn ping_measures_round_trips_to_a_running_node() {
         hops.contains("DDS receive → control thread median"),
         "{hops}"
     );
+    // ping's probes hold a posture where the default policy (a task-space head, singular
+    // on the stretched arms at q = 0) runs: the node never fell back to zero velocity.
+    assert!(
+        !log.contains("undefined at the current joint state"),
+        "the node did not run its policy on ping's probes:\n{}",
+        common::log_tail(&node_log)
+    );
 
     // No node on another domain: exit 1 with a reason.
     let out = ping(domain + 1, &["--connect-timeout-s", "1"]);
