@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 
 use crossym::config::Config;
 use crossym::ros::dds::{self, DdsSettings};
-use crossym::ros::realtime::{self, RealtimeConfig, RealtimeOutcome};
+use crossym::ros::realtime::{self, RealtimeConfig};
 use crossym::ros::{msg, OutputMode, Trigger};
 
 use super::ros::{node_config, NodeOverrides};
@@ -197,18 +197,10 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
             .map_err(|e| anyhow::anyhow!("--realtime: {e}"))?;
         // SAFETY: pthread_self has no preconditions.
         for o in realtime::apply(&rt, unsafe { libc::pthread_self() }) {
-            match o {
-                RealtimeOutcome::Applied { what } => {
-                    eprintln!(
-                        "crossym ping: realtime: {}",
-                        what.replace("control thread", "ping thread")
-                    )
-                }
-                RealtimeOutcome::Refused { what, reason } => {
-                    eprintln!("crossym ping: realtime: {what} REFUSED ({reason})")
-                }
-                _ => {}
-            }
+            eprintln!(
+                "crossym ping: {}",
+                o.to_string().replace("control thread", "ping thread")
+            );
         }
     }
     let js_pub = dds::publisher::<msg::JointState>(&mut node, &js_topic, dds::qos_reliable(10))?;

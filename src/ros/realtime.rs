@@ -76,6 +76,25 @@ pub enum RealtimeOutcome {
     },
 }
 
+impl RealtimeOutcome {
+    /// True when the kernel refused the setting.
+    pub fn is_refused(&self) -> bool {
+        matches!(self, Self::Refused { .. })
+    }
+}
+
+impl std::fmt::Display for RealtimeOutcome {
+    /// `realtime: <what>`, or `realtime: <what> REFUSED (<reason>); running without it`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Applied { what } => write!(f, "realtime: {what}"),
+            Self::Refused { what, reason } => {
+                write!(f, "realtime: {what} REFUSED ({reason}); running without it")
+            }
+        }
+    }
+}
+
 /// How to grant the `SCHED_FIFO` privilege, for a refusal at `priority`.
 fn rtprio_hint(priority: i32) -> String {
     format!("grant CAP_SYS_NICE or an rtprio limit ≥ {priority} (ulimit -r, /etc/security/limits.conf; docker: --cap-add SYS_NICE --ulimit rtprio=99)")

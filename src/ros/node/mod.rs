@@ -257,7 +257,7 @@ fn apply_realtime(
     control: &thread::JoinHandle<TickStats>,
     log: &mut NodeLog,
 ) -> Option<super::realtime::CpuLatencyRequest> {
-    use super::realtime::{self, RealtimeOutcome};
+    use super::realtime;
     use std::os::unix::thread::JoinHandleExt;
     let mut outcomes = realtime::apply(rt, control.as_pthread_t());
     let mut held = None;
@@ -267,15 +267,12 @@ fn apply_realtime(
         outcomes.push(outcome);
     }
     for o in outcomes {
-        match o {
-            RealtimeOutcome::Applied { what } => {
-                log.log(Severity::Info, &format!("realtime: {what}"))
-            }
-            RealtimeOutcome::Refused { what, reason } => log.log(
-                Severity::Warn,
-                &format!("realtime: {what} REFUSED ({reason}); running without it"),
-            ),
-        }
+        let severity = if o.is_refused() {
+            Severity::Warn
+        } else {
+            Severity::Info
+        };
+        log.log(severity, &o.to_string());
     }
     held
 }
