@@ -203,7 +203,7 @@ fn find_blocks(w: &[f64], o: usize, i: usize) -> Option<PackedLayer> {
             row[..b * bi].iter().all(|&v| v == 0.0) && row[(b + 1) * bi..].iter().all(|&v| v == 0.0)
         })
     };
-    let k = (2..=o.min(i) / BLOCK_ALIGN)
+    let k = (2..=i / BLOCK_ALIGN)
         .rev()
         .find(|&k| o % k == 0 && i % k == 0 && (i / k) % BLOCK_ALIGN == 0 && off_blocks_zero(k))?;
     let (bo, bi) = (o / k, i / k);

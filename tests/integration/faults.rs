@@ -65,13 +65,8 @@ fn tightened(tag: &str, mock_hw: &str) -> Tight {
     let cfg = Config::from_file(&src).unwrap();
     let robot = cfg.load_robot().unwrap();
     let joints: Vec<String> = robot.kinematics.joint_names().to_vec();
-    // mock-hw starts at `[mock_hw] initial_q`, else `[check] reference_q` (src/cli/ros.rs).
-    let rest = cfg
-        .mock_hw
-        .as_ref()
-        .and_then(|m| m.initial_q.clone())
-        .or_else(|| cfg.check.reference_q.clone())
-        .expect("letters.toml has [check] reference_q");
+    // Where mock-hw starts (`[mock_hw] initial_q`, else `[check] reference_q`).
+    let rest = cfg.start_q().expect("letters.toml has [check] reference_q");
     assert_eq!(rest.len(), joints.len());
     let dir = common::temp_dir(&format!("faults-{tag}"));
     let urdf_src = cfg.resolve(&cfg.robot.urdf);
