@@ -419,20 +419,26 @@ impl MlpInference {
     /// `y = φ(W_l x + b_l)` (or without `φ` for the output layer).
     #[inline]
     fn layer(&self, l: usize, x: &[f64], y: &mut [f64], activate: bool) {
-        let bias = &self.biases[l];
-        let (w, cols, rows_per_block) = match &self.packed[l] {
-            Some(p) => (&p.weights[..], x.len() / p.blocks, y.len() / p.blocks),
-            None => (&self.weights[l][..], x.len(), y.len()),
+        // Dense: one block, the whole input; packed: block b's rows read block b's columns.
+        let (w, blocks) = match &self.packed[l] {
+            Some(p) => (&p.weights[..], p.blocks),
+            None => (&self.weights[l][..], 1),
         };
-        for (r, yr) in y.iter_mut().enumerate() {
-            // Dense: the whole input (one block); packed: row r's block of it.
-            let c0 = (r / rows_per_block) * cols;
-            let v = bias[r] + dot(&w[r * cols..(r + 1) * cols], &x[c0..c0 + cols]);
-            *yr = if activate {
-                self.spec.activation.apply(v)
-            } else {
-                v
-            };
+        let (rows, cols) = (y.len() / blocks, x.len() / blocks);
+        let per_block = y
+            .chunks_mut(rows)
+            .zip(self.biases[l].chunks(rows))
+            .zip(w.chunks(rows * cols))
+            .zip(x.chunks(cols));
+        for (((yb, bb), wb), xb) in per_block {
+            for ((yr, br), wr) in yb.iter_mut().zip(bb).zip(wb.chunks_exact(cols)) {
+                let v = br + dot(wr, xb);
+                *yr = if activate {
+                    self.spec.activation.apply(v)
+                } else {
+                    v
+                };
+            }
         }
     }
 }
