@@ -342,6 +342,7 @@ fn bench_floor(_c: &mut Criterion) {
         lock_memory: true,
         dds_priority: None,
         cpu_latency_us: None,
+        idle_poll: false,
     };
     std::thread::spawn(move || {
         // SAFETY: pthread_self has no preconditions.

@@ -192,6 +192,7 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
             lock_memory: true,
             dds_priority: Some((p - 1).max(1)),
             cpu_latency_us: None,
+            idle_poll: false,
         };
         rt.validate()
             .map_err(|e| anyhow::anyhow!("--realtime: {e}"))?;

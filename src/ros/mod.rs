@@ -8,6 +8,7 @@
 
 pub mod core;
 pub mod dds;
+pub mod idle_poll;
 pub mod log;
 pub mod msg;
 pub mod msgdef;

@@ -10,7 +10,9 @@
 //! idle CPU polls instead of halting, so the threads on the joint state → command path
 //! (DDS receive, control thread, DDS send) wake in microseconds rather than tens to
 //! hundreds — on a virtual machine a halted vCPU is the dominant cost of an idle round
-//! trip. It applies to every CPU of the machine and costs their idle time.
+//! trip. It applies to every CPU of the machine and costs their idle time. Where it has no
+//! effect (no `cpuidle` driver, as on a Firecracker VM), `idle_poll = true` keeps them
+//! polling from user space ([`super::idle_poll`]); it needs no privilege.
 //!
 //! Both need privileges: `CAP_SYS_NICE` or an `rtprio` limit ≥ the priority (`ulimit -r`,
 //! `/etc/security/limits.conf`, `docker run --cap-add SYS_NICE --ulimit rtprio=99`) and
@@ -20,6 +22,8 @@
 //! ```toml
 //! [node]
 //! realtime = { priority = 80, lock_memory = true, dds_priority = 79, cpu_latency_us = 0 }
+//! # or, where idle CPUs halt whatever PM QoS asks:
+//! realtime = { priority = 80, lock_memory = true, dds_priority = 79, idle_poll = true }
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -41,6 +45,10 @@ pub struct RealtimeConfig {
     /// runs (0: idle CPUs poll); absent: the kernel's default.
     #[serde(default)]
     pub cpu_latency_us: Option<u32>,
+    /// Keep every CPU from halting while the node runs: one `SCHED_IDLE` thread per CPU
+    /// polls ([`super::idle_poll`], the stand-in for `idle=poll`; costs all idle CPU time).
+    #[serde(default)]
+    pub idle_poll: bool,
 }
 
 impl RealtimeConfig {
@@ -253,6 +261,7 @@ mod tests {
                 lock_memory: false,
                 dds_priority: None,
                 cpu_latency_us: None,
+                idle_poll: false,
             };
             assert!(c.validate().unwrap_err().contains("1 … 99"), "{p}");
             let d = RealtimeConfig {
@@ -260,6 +269,7 @@ mod tests {
                 lock_memory: false,
                 dds_priority: Some(p),
                 cpu_latency_us: None,
+                idle_poll: false,
             };
             assert!(d.validate().unwrap_err().starts_with("dds_priority"), "{p}");
         }

@@ -354,20 +354,31 @@ fn thread_policy(pid: u32, comm: &str) -> Option<(u32, u32)> {
 }
 
 /// `[node] realtime = { priority = 10, lock_memory = true, dds_priority = 9,
-/// cpu_latency_us = 0 }`: with the privilege the kernel shows the control thread under
-/// SCHED_FIFO at priority 10, RustDDS's event-loop thread at 9, the memory locked and its PM
-/// QoS CPU latency target at 0 while the node runs (back afterwards);
+/// cpu_latency_us = 0, idle_poll = true }`: with the privilege the kernel shows the control
+/// thread under SCHED_FIFO at priority 10, RustDDS's event-loop thread at 9, the memory
+/// locked and its PM QoS CPU latency target at 0 while the node runs (back afterwards);
 /// without it (CAP_SYS_NICE and CAP_IPC_LOCK dropped from the bounding set) the node says
 /// what was refused and how to grant it, keeps commanding at normal priority, and exits 0.
+/// Either way (lowering needs no privilege) one idle poller per CPU runs under SCHED_IDLE.
 #[test]
 fn realtime_settings_apply_or_say_why_not() {
     let dir = common::temp_dir("realtime");
     let text = std::fs::read_to_string(cfg()).unwrap();
     let text = text.replace(
         "[node]\n",
-        "[node]\nrealtime = { priority = 10, lock_memory = true, dds_priority = 9, cpu_latency_us = 0 }\n",
+        "[node]\nrealtime = { priority = 10, lock_memory = true, dds_priority = 9, cpu_latency_us = 0, idle_poll = true }\n",
     );
     let text = text.replace("\"../", &format!("\"{}/", common::root().display()));
+    // The CPUs the node may run on, as the kernel says (its affinity is this process's).
+    // SAFETY: a zeroed cpu_set_t is an empty set, filled by the call.
+    let cpus = unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        assert_eq!(
+            libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set),
+            0
+        );
+        libc::CPU_COUNT(&set) as usize
+    };
     let path = dir.join("rt.toml");
     std::fs::write(&path, text).unwrap();
     let path = path.display().to_string();
@@ -403,6 +414,17 @@ fn realtime_settings_apply_or_say_why_not() {
         };
         let (policy, prio) = find("crossym-control").expect("control thread");
         let dds = find("RustDDS Partici").expect("DDS event-loop thread");
+        for c in 0..cpus {
+            // SCHED_IDLE = 5.
+            let idle = find(&format!("crossym-idle{c}"));
+            assert_eq!(idle, Some((5, 0)), "poller on CPU {c}\n{text}");
+        }
+        assert!(
+            text.contains(&format!(
+                "realtime: idle CPUs poll instead of halting ({cpus} SCHED_IDLE thread"
+            )),
+            "{text}"
+        );
         let locked_kb: u64 = std::fs::read_to_string(format!("/proc/{}/status", node.id()))
             .unwrap()
             .lines()

@@ -37,6 +37,7 @@ use self::record::{start_recorder, Recorder};
 pub use self::stats::{HopStats, TickStats};
 use super::core::{InputGate, NodeCore, OutputMode};
 use super::dds::{self, DdsError, DdsSettings};
+use super::idle_poll::IdlePoll;
 use super::log::{NodeLog, Severity, StatusWatch};
 use super::msg;
 use crate::bag::BagError;
@@ -127,10 +128,10 @@ pub fn run(
             message: format!("control thread: {e}"),
         })?;
     // Held until the node stops (the kernel drops the CPU latency request on close).
-    let _cpu_latency = cfg
-        .realtime
-        .as_ref()
-        .and_then(|rt| apply_realtime(rt, &control, &mut log));
+    let (_cpu_latency, idle_poll) = match &cfg.realtime {
+        Some(rt) => apply_realtime(rt, &control, &mut log),
+        None => (None, None),
+    };
 
     let mut io = IoSide {
         gate,
@@ -149,6 +150,7 @@ pub fn run(
         );
     }
     let stats = finish(control, recorder, io);
+    drop(idle_poll);
     drop(node);
     runtime.shutdown_timeout(Duration::from_millis(200));
     stats
@@ -251,12 +253,13 @@ impl Endpoints {
 }
 
 /// Applies `[node] realtime` to the control thread (and the DDS threads, the memory, the
-/// CPU latency) and logs each outcome; returns the CPU latency request to hold.
+/// CPU latency, the idle pollers) and logs each outcome; returns the CPU latency request
+/// and the pollers, to hold while the node runs.
 fn apply_realtime(
     rt: &super::realtime::RealtimeConfig,
     control: &thread::JoinHandle<TickStats>,
     log: &mut NodeLog,
-) -> Option<super::realtime::CpuLatencyRequest> {
+) -> (Option<super::realtime::CpuLatencyRequest>, Option<IdlePoll>) {
     use super::realtime;
     use std::os::unix::thread::JoinHandleExt;
     let mut outcomes = realtime::apply(rt, control.as_pthread_t());
@@ -264,6 +267,12 @@ fn apply_realtime(
     if let Some(us) = rt.cpu_latency_us {
         let (request, outcome) = realtime::request_cpu_latency(us);
         held = request;
+        outcomes.push(outcome);
+    }
+    let mut pollers = None;
+    if rt.idle_poll {
+        let (p, outcome) = IdlePoll::start();
+        pollers = p;
         outcomes.push(outcome);
     }
     for o in outcomes {
@@ -274,7 +283,7 @@ fn apply_realtime(
         };
         log.log(severity, &o.to_string());
     }
-    held
+    (held, pollers)
 }
 
 /// Joins the control thread (which sent the final command) and the recorder, logs the
