@@ -212,6 +212,10 @@ enum Command {
         /// command, else the node's output.
         #[arg(long)]
         command: Option<String>,
+        /// The robot: `kinematic` (commands executed exactly) or `mujoco` (the physics RB-Y1
+        /// of `[mock_hw.mujoco]`, `physics/rby1_mujoco.py`); default: [mock_hw] plant.
+        #[arg(long)]
+        plant: Option<crossym::sim::physics::Plant>,
     },
     /// Transfer and compose the configured symmetries and print the numerical checks.
     /// Exits 1 when a requested composition is impossible or a transfer fails.
@@ -299,7 +303,14 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             summary,
             initial_q,
             command,
-        } => ros::mock_hw(&config, summary.as_deref(), initial_q, command.as_deref()),
+            plant,
+        } => ros::mock_hw(
+            &config,
+            summary.as_deref(),
+            initial_q,
+            command.as_deref(),
+            plant,
+        ),
         Command::Augment { config, plot } => augment(&config, plot.as_deref()),
         Command::Train {
             config,

@@ -74,6 +74,17 @@ pub struct RobotConfig {
     /// Per-joint limit overrides.
     #[serde(default)]
     pub limits: BTreeMap<String, LimitOverride>,
+    /// Limits of the robot's hardware interface, applied to every joint of the URDF where
+    /// they are tighter than the URDF's (e.g. RB-Y1's ros2_control hardware streams targets
+    /// under 4.712 rad/s and 1.0 rad/s²): the safety filter then never commands what the
+    /// hardware would clip. Per-joint `limits` apply after these.
+    #[serde(default)]
+    pub hardware_limits: Option<LimitOverride>,
+    /// The URDF's `<robot name>` this configuration was made for (a vendor names its
+    /// versions there, e.g. `RBY1_A_v1.0`); a URDF of another name is refused, since robot
+    /// versions differ in joint origins, limits and axes.
+    #[serde(default)]
+    pub urdf_name: Option<String>,
 }
 
 /// A loaded robot: the URDF model (with overrides applied) and its chain kinematics.
@@ -98,6 +109,40 @@ impl RobotConfig {
             base_dir.join(&self.urdf)
         };
         let mut model = RobotModel::from_urdf_file(&path)?;
+        if let Some(want) = &self.urdf_name {
+            if &model.name != want {
+                return Err(KinematicsError::InvalidSetting {
+                    field: "robot.urdf_name".into(),
+                    message: format!(
+                        "the config is for the robot `{want}`, but {} describes `{}` (robot \
+                         versions differ in joint origins, limits and axes: point `urdf` at the \
+                         URDF of your robot's version, or use a config made for it)",
+                        path.display(),
+                        model.name
+                    ),
+                });
+            }
+        }
+        if let Some(hw) = &self.hardware_limits {
+            let movable: Vec<(String, f64, Option<f64>)> = model
+                .joints
+                .iter()
+                .filter(|j| j.kind.is_movable())
+                .map(|j| (j.name.clone(), j.limits.velocity, j.limits.acceleration))
+                .collect();
+            for (joint, v, a) in movable {
+                if let Some(h) = hw.acceleration {
+                    if a.is_none_or(|a| h < a) {
+                        model.set_acceleration_limit(&joint, h)?;
+                    }
+                }
+                if let Some(h) = hw.velocity {
+                    if h < v {
+                        model.set_velocity_limit(&joint, h)?;
+                    }
+                }
+            }
+        }
         for (joint, o) in &self.limits {
             if let Some(a) = o.acceleration {
                 model.set_acceleration_limit(joint, a)?;

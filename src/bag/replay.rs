@@ -103,7 +103,7 @@ pub fn replay(
                 OutputMode::Trajectory => bag
                     .decode::<msg::JointTrajectory>(i)?
                     .points
-                    .first()
+                    .last()
                     .map(|p| p.positions.clone())
                     .unwrap_or_default(),
             };

@@ -47,6 +47,10 @@ pub struct DemoArgs {
     /// `period × end-effector speed` however small the offline error is.
     #[arg(long, default_value_t = 0.0)]
     pub max_excess: f64,
+    /// The robot: `kinematic` mock (default) or `mujoco` (the physics RB-Y1 of
+    /// `[mock_hw.mujoco]`; `bash physics/install.sh` first).
+    #[arg(long)]
+    pub plant: Option<crossym::sim::physics::Plant>,
     /// Do not re-run inside a private network namespace (then ROS_LOCALHOST_ONLY=1 is
     /// still set for every process).
     #[arg(long)]
@@ -314,6 +318,12 @@ pub fn demo(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     let _ = std::fs::remove_file(&summary_path);
     let mut hw_cmd = child("mock-hw");
     hw_cmd.arg("--summary").arg(&summary_path);
+    if let Some(p) = a.plant {
+        hw_cmd.arg("--plant").arg(match p {
+            crossym::sim::physics::Plant::Kinematic => "kinematic",
+            crossym::sim::physics::Plant::Mujoco => "mujoco",
+        });
+    }
     let mut hw = Proc::spawn("mock-hw", hw_cmd, &a.out.join("mock_hw.log"))?;
     let bag_dir = a.out.join("bag");
     if bag_dir.exists() {

@@ -134,6 +134,7 @@ pub fn mock_hw(
     summary: Option<&Path>,
     initial_q: Option<Vec<f64>>,
     command: Option<&str>,
+    plant: Option<crossym::sim::physics::Plant>,
 ) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(path)?;
     let node = node_config(&cfg, &NodeOverrides::default())?;
@@ -147,6 +148,9 @@ pub fn mock_hw(
     let q0 = initial_q
         .or_else(|| cfg.start_q())
         .unwrap_or_else(|| vec![0.0; kin.dof()]);
+    if plant.unwrap_or(hw_cfg.plant) == crossym::sim::physics::Plant::Mujoco {
+        return physics_robot(&cfg, &hw_cfg, kin.joint_names(), &q0, summary);
+    }
     let mode = match command {
         Some(c) => parse_output(c).map_err(anyhow::Error::msg)?,
         None => hw_cfg.command.unwrap_or(node.output),
@@ -173,6 +177,46 @@ pub fn mock_hw(
     } else {
         ExitCode::from(1)
     })
+}
+
+/// `crossym mock-hw --plant mujoco`: replaces this process by the physics robot
+/// (`physics/rby1_mujoco.py`, see [`crossym::sim::physics`]), so that signals reach it.
+fn physics_robot(
+    cfg: &Config,
+    hw: &MockHwConfig,
+    joints: &[String],
+    q0: &[f64],
+    summary: Option<&Path>,
+) -> anyhow::Result<ExitCode> {
+    use std::os::unix::process::CommandExt;
+    let base = cfg.resolve(Path::new("."));
+    let urdf = cfg.resolve(&cfg.robot.urdf);
+    let args = hw
+        .mujoco
+        .args(&crossym::sim::physics::PhysicsRun {
+            base_dir: &base,
+            urdf: &urdf,
+            joints,
+            initial_q: q0,
+            rate_hz: hw.rate_hz.min(100.0),
+            summary,
+        })
+        .map_err(anyhow::Error::msg)
+        .context("[mock_hw.mujoco]")?;
+    let program = hw.mujoco.program(&base);
+    anyhow::ensure!(
+        program.is_file(),
+        "the physics robot {} is missing (set [mock_hw.mujoco] program or CROSSYM_PHYSICS_DIR)",
+        program.display()
+    );
+    let err = std::process::Command::new("python3")
+        .arg(&program)
+        .args(&args)
+        .exec();
+    Err(anyhow::Error::new(err).context(format!(
+        "running python3 {} (install its packages with `bash physics/install.sh`)",
+        program.display()
+    )))
 }
 
 /// `crossym bag info`.

@@ -118,6 +118,11 @@ pub struct NodeConfig {
     /// Real-time settings of the control thread (`SCHED_FIFO`, locked memory); off when
     /// absent.
     pub realtime: Option<super::realtime::RealtimeConfig>,
+    /// Trajectory mode: each JointTrajectory starts with a point at `time_from_start = 0`
+    /// on the previous command, so that a JointTrajectoryController interpolates along the
+    /// node's path instead of restarting from the measured state (its default). False: one
+    /// point, reached after `period_s`.
+    pub trajectory_start_point: bool,
 }
 
 impl Default for NodeConfig {
@@ -138,6 +143,7 @@ impl Default for NodeConfig {
             accept_untrained_conditions: false,
             log_level: super::log::Severity::Info,
             realtime: None,
+            trajectory_start_point: true,
         }
     }
 }
@@ -480,6 +486,17 @@ pub enum StatusCode {
     /// where the accepted condition is singular), or a task-space head's lift `J⁺` is
     /// singular there (a stretched or folded arm): zero velocity, filtered.
     ConditionInfeasible = 21,
+    /// Position modes: the measured state left the envelope of the commands the robot may
+    /// be following (a reset, a robot moved by something else): the commands restarted from
+    /// the measured state at rest this tick.
+    RestartedFromMeasured = 22,
+    /// Position modes: the robot does not follow its commands (more than
+    /// `safety.max_restarts` restarts within `safety.restart_window_s`): braking to a hold,
+    /// no policy motion until a new condition is accepted.
+    RobotNotFollowing = 23,
+    /// Position modes: the measured state has been farther than `safety.tracking_warning`
+    /// from the command in effect for longer than `safety.tracking_window_s`.
+    TrackingError = 24,
 }
 
 impl StatusCode {
@@ -495,6 +512,9 @@ impl StatusCode {
             StatusCode::PolicyNonfinite => "POLICY_NONFINITE",
             StatusCode::Shutdown => "SHUTDOWN",
             StatusCode::ConditionInfeasible => "CONDITION_INFEASIBLE",
+            StatusCode::RestartedFromMeasured => "RESTARTED_FROM_MEASURED",
+            StatusCode::RobotNotFollowing => "ROBOT_NOT_FOLLOWING",
+            StatusCode::TrackingError => "TRACKING_ERROR",
         }
     }
 
@@ -504,7 +524,7 @@ impl StatusCode {
     }
 
     /// Every code, for table checks.
-    pub const ALL: [StatusCode; 9] = [
+    pub const ALL: [StatusCode; 12] = [
         StatusCode::NoWarning,
         StatusCode::DecelerateForCollision,
         StatusCode::JointBound,
@@ -514,6 +534,9 @@ impl StatusCode {
         StatusCode::PolicyNonfinite,
         StatusCode::Shutdown,
         StatusCode::ConditionInfeasible,
+        StatusCode::RestartedFromMeasured,
+        StatusCode::RobotNotFollowing,
+        StatusCode::TrackingError,
     ];
 
     /// Human-readable text of the code.
@@ -530,6 +553,15 @@ impl StatusCode {
             StatusCode::ConditionInfeasible => {
                 "policy undefined at the current state (singular flow or lift): zero velocity"
             }
+            StatusCode::RestartedFromMeasured => {
+                "robot left the envelope of its commands: restarted from the measured state"
+            }
+            StatusCode::RobotNotFollowing => {
+                "robot does not follow its commands: holding until a new condition is accepted"
+            }
+            StatusCode::TrackingError => {
+                "robot lags its commands by more than safety.tracking_warning"
+            }
         }
     }
 }
@@ -543,6 +575,12 @@ pub struct Command {
     pub velocities: Vec<f64>,
     /// Joint positions (rad or m): `q + v·Δt` clamped to the limits, or the hold position.
     pub positions: Vec<f64>,
+    /// Position modes: where this command starts (rad or m): the previous command, or the
+    /// measured state on a (re)start.
+    pub start_positions: Vec<f64>,
+    /// Position modes: the velocities at the start (rad/s or m/s): the previous command's,
+    /// zero on a (re)start.
+    pub start_velocities: Vec<f64>,
 }
 
 impl Command {
@@ -562,18 +600,34 @@ impl Command {
         }
     }
 
-    /// As a one-point JointTrajectory reached after `dt` (s) (allocates).
-    pub fn to_joint_trajectory(&self, joint_names: &[String], dt: f64) -> msg::JointTrajectory {
+    /// As a JointTrajectory whose last point, the command, is reached after `dt` (s)
+    /// (allocates). With `start_point`, a first point at `time_from_start = 0` holds where
+    /// the command starts (the previous command): a JointTrajectoryController then
+    /// interpolates from there, not from the measured state — its default for the start of
+    /// every new trajectory (`open_loop_control = false`), which would restart a lagging
+    /// robot's reference from where the robot is, 100 times a second.
+    pub fn to_joint_trajectory(
+        &self,
+        joint_names: &[String],
+        dt: f64,
+        start_point: bool,
+    ) -> msg::JointTrajectory {
+        let point = |positions: &[f64], velocities: &[f64], t: f64| msg::JointTrajectoryPoint {
+            positions: positions.to_vec(),
+            velocities: velocities.to_vec(),
+            accelerations: Vec::new(),
+            effort: Vec::new(),
+            time_from_start: msg::Duration::from_secs_f64(t),
+        };
+        let mut points = Vec::with_capacity(2);
+        if start_point {
+            points.push(point(&self.start_positions, &self.start_velocities, 0.0));
+        }
+        points.push(point(&self.positions, &self.velocities, dt));
         msg::JointTrajectory {
             header: msg::Header::default(),
             joint_names: joint_names.to_vec(),
-            points: vec![msg::JointTrajectoryPoint {
-                positions: self.positions.clone(),
-                velocities: self.velocities.clone(),
-                accelerations: Vec::new(),
-                effort: Vec::new(),
-                time_from_start: msg::Duration::from_secs_f64(dt),
-            }],
+            points,
         }
     }
 }
@@ -619,6 +673,17 @@ pub struct StatusSnapshot {
     pub infeasible_ticks: u64,
     /// Age of the joint state at the last tick (s); negative when none.
     pub joint_state_age_s: f64,
+    /// Position modes: restarts from the measured state since start (count).
+    pub restarts: u64,
+    /// Position modes: ticks held because the robot does not follow (count).
+    pub not_following_ticks: u64,
+    /// Position modes: ticks with a tracking error above `safety.tracking_warning` for
+    /// longer than `safety.tracking_window_s` (count).
+    pub tracking_warning_ticks: u64,
+    /// Position modes: the largest distance (rad or m) over the joints between the measured
+    /// position and the command in effect when it was measured, at the last tick; 0 in
+    /// velocity mode.
+    pub tracking_error: f64,
     /// Duration of the last tick (µs), as recorded by the caller.
     pub tick_time_us: f64,
     /// Maximum recorded tick duration (µs).
@@ -656,6 +721,10 @@ impl StatusSnapshot {
                 scale: self.condition.scale,
                 reflection: self.condition.reflection,
             },
+            restarts: self.restarts,
+            not_following_ticks: self.not_following_ticks,
+            tracking_warning_ticks: self.tracking_warning_ticks,
+            tracking_error: self.tracking_error,
         }
     }
 }
@@ -945,12 +1014,25 @@ pub struct NodeCore {
     // Last commanded position (position / trajectory modes: the anchor of the next command).
     q_hold: Vec<f64>,
     has_hold: bool,
+    // The last command's velocities (the start of the next trajectory segment).
+    v_last: Vec<f64>,
     // Commanded positions with their times, and the hull of those the robot may follow.
     pos_history: CommandHistory,
     pos_window: CommandWindow,
     unbounded: Vec<f64>,
     zeros: Vec<f64>,
     policy_override: Option<PolicyOverride>,
+    // Position modes: times of the last `max_restarts + 1` restarts (ring), the hold after
+    // the robot was found not following, and the tracking error's watch.
+    restart_times: Vec<f64>,
+    restart_head: usize,
+    halted: bool,
+    halted_condition_seq: u64,
+    tracking_high_since: Option<f64>,
+    restarts: u64,
+    not_following_ticks: u64,
+    tracking_warning_ticks: u64,
+    tracking_error: f64,
     // Status.
     code: StatusCode,
     ticks: u64,
@@ -1054,13 +1136,11 @@ impl NodeCore {
             },
         )?;
         let fs = filter.settings();
-        if !(safety.tracking_tolerance.is_finite() && safety.tracking_tolerance > 0.0) {
-            return Err(NodeError::Config {
-                field: "safety.tracking_tolerance",
-                message: format!("{} must be positive", safety.tracking_tolerance),
-            });
-        }
-        let pos_capacity = ((cfg.stale_timeout_s + fs.state_delay_s + 2.0 * fs.latency())
+        validate_tracking(&safety)?;
+        let pos_capacity = ((cfg.stale_timeout_s
+            + fs.state_delay_s
+            + 2.0 * fs.latency()
+            + safety.tracking_window_s)
             / cfg.period_s)
             .ceil()
             .min(1e5) as usize
@@ -1102,11 +1182,21 @@ impl NodeCore {
             v_safe: vec![0.0; n],
             q_hold: vec![0.0; n],
             has_hold: false,
+            v_last: vec![0.0; n],
             pos_history: CommandHistory::new(n, pos_capacity),
             pos_window: CommandWindow::new(n),
             unbounded: vec![f64::INFINITY; n],
             zeros: vec![0.0; n],
             policy_override: None,
+            restart_times: vec![f64::NEG_INFINITY; safety.max_restarts as usize + 1],
+            restart_head: 0,
+            halted: false,
+            halted_condition_seq: 0,
+            tracking_high_since: None,
+            restarts: 0,
+            not_following_ticks: 0,
+            tracking_warning_ticks: 0,
+            tracking_error: 0.0,
             code: StatusCode::StaleJointStates,
             ticks: 0,
             stale_ticks: 0,
@@ -1170,6 +1260,8 @@ impl NodeCore {
             mode: self.cfg.output,
             velocities: vec![0.0; self.n],
             positions: vec![0.0; self.n],
+            start_positions: vec![0.0; self.n],
+            start_velocities: vec![0.0; self.n],
         }
     }
 
@@ -1220,6 +1312,8 @@ impl NodeCore {
             out.positions.copy_from_slice(&self.q_hold);
             return false;
         }
+        out.start_positions.copy_from_slice(&self.q_hold);
+        out.start_velocities.copy_from_slice(&self.v_last);
         self.filter.brake(now_s, &mut out.velocities);
         let dt = self.cfg.period_s;
         let i = &self.gate.inputs;
@@ -1235,28 +1329,49 @@ impl NodeCore {
             self.q_hold.copy_from_slice(&out.positions);
             self.pos_history.push(now_s, &out.positions);
         }
+        self.v_last.copy_from_slice(&out.velocities);
         true
     }
 
-    /// True when the measured `q` lies within `tracking_tolerance` of the positions the robot
-    /// may be following since it was measured (position modes); false after a teleport or
-    /// when the robot does not follow.
+    /// True when the measured `q` lies within `tracking_tolerance` of the hull of the
+    /// positions the robot may be following (position modes): the commands from
+    /// `tracking_window_s` before the measurement until now; false after a teleport or when
+    /// the robot does not follow. Also sets the tracking error (the measured state against
+    /// the command in effect when it was measured).
     fn tracks_commands(&mut self) -> bool {
         let i = &self.gate.inputs;
-        let s = i.measured_time_s - self.filter.settings().state_delay_s;
+        let fs = self.filter.settings();
+        let s = i.measured_time_s - fs.state_delay_s;
         let t = i.state_time_s.unwrap_or(s);
+        let window = self.cfg.safety.tracking_window_s;
         self.pos_history.window(
-            s.min(t),
+            s.min(t) - window,
             t,
-            self.filter.settings().latency(),
+            fs.latency(),
             &self.unbounded,
             &mut self.pos_window,
         );
+        self.tracking_error = match self.pos_history.at(s) {
+            Some(c) => (0..self.n).fold(0.0, |e: f64, j| e.max((i.q[j] - c[j]).abs())),
+            None => 0.0,
+        };
         let tol = self.cfg.safety.tracking_tolerance;
         (0..self.n).all(|j| {
             i.q[j] >= self.pos_window.past_min[j] - tol
                 && i.q[j] <= self.pos_window.past_max[j] + tol
         })
+    }
+
+    /// Records a restart at `now_s`; true when it makes more than `max_restarts` within
+    /// `restart_window_s` (the robot does not follow).
+    fn count_restart(&mut self, now_s: f64) -> bool {
+        self.restarts = self.restarts.saturating_add(1);
+        let k = self.restart_times.len();
+        self.restart_head = (self.restart_head + 1) % k;
+        self.restart_times[self.restart_head] = now_s;
+        // The oldest of the last `max_restarts + 1` restarts.
+        let oldest = self.restart_times[(self.restart_head + 1) % k];
+        now_s - oldest <= self.cfg.safety.restart_window_s
     }
 
     /// One control tick at time `now_s` (s) into `out`; allocation-free. See the module docs.
@@ -1286,21 +1401,67 @@ impl NodeCore {
                 active_constraints: 0,
             };
         }
+        // Position modes: a robot found not following stays held (braking, then holding the
+        // last command) until a new condition is accepted.
+        if self.halted {
+            if self.gate.inputs.condition_seq == self.halted_condition_seq {
+                self.not_following_ticks = self.not_following_ticks.saturating_add(1);
+                let publish = self.brake(now_s, out);
+                self.code = StatusCode::RobotNotFollowing;
+                self.active = 0;
+                return TickReport {
+                    code: self.code,
+                    publish,
+                    safety: Some(SafetyStatus::Braking),
+                    active_constraints: 0,
+                };
+            }
+            // A new condition: start again from the measured state, with a clean count.
+            self.halted = false;
+            self.has_hold = false;
+            self.restart_times.fill(f64::NEG_INFINITY);
+        }
         // Position modes: the next command continues the last commanded position, unless
         // there is none yet or the robot is not where the commands put it (a reset, a robot
         // that does not follow): then it starts from the measured state at rest.
-        if self.is_position() && (!self.has_hold || !self.tracks_commands()) {
-            for j in 0..self.n {
-                self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
+        let mut restarted = false;
+        let mut lagging = false;
+        if self.is_position() {
+            let tracks = !self.has_hold || self.tracks_commands();
+            if !tracks && self.count_restart(now_s) {
+                // Repeated restarts: the robot does not follow. Hold where the commands are.
+                self.halted = true;
+                self.halted_condition_seq = self.gate.inputs.condition_seq;
+                self.not_following_ticks = self.not_following_ticks.saturating_add(1);
+                self.tracking_high_since = None;
+                let publish = self.brake(now_s, out);
+                self.code = StatusCode::RobotNotFollowing;
+                self.active = 0;
+                return TickReport {
+                    code: self.code,
+                    publish,
+                    safety: Some(SafetyStatus::Braking),
+                    active_constraints: 0,
+                };
             }
-            self.filter.reset(&self.zeros);
-            if self.has_hold {
-                // Commands still in flight may yet move the robot: keep them in the hull.
-                self.pos_history.push(now_s, &self.q_hold);
-            } else {
-                self.pos_history.reset_to(&self.q_hold);
+            if !self.has_hold || !tracks {
+                restarted = self.has_hold;
+                for j in 0..self.n {
+                    self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
+                }
+                self.filter.reset(&self.zeros);
+                if self.has_hold {
+                    // Commands still in flight may yet move the robot: keep them in the hull.
+                    self.pos_history.push(now_s, &self.q_hold);
+                } else {
+                    self.pos_history.reset_to(&self.q_hold);
+                }
+                self.has_hold = true;
+                self.tracking_high_since = None;
+                self.tracking_error = 0.0;
+                self.v_last.fill(0.0);
             }
-            self.has_hold = true;
+            lagging = self.watch_tracking(now_s);
         }
         let inputs = &self.gate.inputs;
         let q = inputs.q.as_slice();
@@ -1353,6 +1514,8 @@ impl NodeCore {
             &mut self.v_safe,
         );
         out.mode = self.cfg.output;
+        out.start_positions.copy_from_slice(&self.q_hold);
+        out.start_velocities.copy_from_slice(&self.v_last);
         let dt = self.cfg.period_s;
         let mut finite = true;
         for j in 0..self.n {
@@ -1380,6 +1543,7 @@ impl NodeCore {
             self.q_hold.copy_from_slice(&out.positions);
             self.pos_history.push(now_s, &out.positions);
         }
+        self.v_last.copy_from_slice(&out.velocities);
         self.active = report.active;
         if report.status == SafetyStatus::Fallback {
             self.fallback_ticks = self.fallback_ticks.saturating_add(1);
@@ -1390,12 +1554,16 @@ impl NodeCore {
         }
         self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
             StatusCode::InvalidInput
+        } else if restarted {
+            StatusCode::RestartedFromMeasured
         } else if report.status == SafetyStatus::Fallback {
             StatusCode::SafetyFallback
         } else if infeasible {
             StatusCode::ConditionInfeasible
         } else if report.policy_nonfinite {
             StatusCode::PolicyNonfinite
+        } else if lagging {
+            StatusCode::TrackingError
         } else if report.active > 0 {
             StatusCode::JointBound
         } else {
@@ -1428,6 +1596,24 @@ impl NodeCore {
         self.has_hold
     }
 
+    /// Whether the tracking error has stayed above `tracking_warning` for longer than
+    /// `tracking_window_s` (at least one period) at `now_s`; counts such ticks.
+    fn watch_tracking(&mut self, now_s: f64) -> bool {
+        let Some(limit) = self.cfg.safety.tracking_warning else {
+            return false;
+        };
+        if self.tracking_error <= limit {
+            self.tracking_high_since = None;
+            return false;
+        }
+        let since = *self.tracking_high_since.get_or_insert(now_s);
+        let lagging = now_s - since >= self.cfg.safety.tracking_window_s.max(self.cfg.period_s);
+        if lagging {
+            self.tracking_warning_ticks = self.tracking_warning_ticks.saturating_add(1);
+        }
+        lagging
+    }
+
     /// Records the caller-measured duration of the last tick (µs).
     pub fn record_tick_time(&mut self, us: f64) {
         if us.is_finite() {
@@ -1451,6 +1637,10 @@ impl NodeCore {
             nonfinite_ticks: self.nonfinite_ticks,
             infeasible_ticks: self.infeasible_ticks,
             joint_state_age_s: self.age_s,
+            restarts: self.restarts,
+            not_following_ticks: self.not_following_ticks,
+            tracking_warning_ticks: self.tracking_warning_ticks,
+            tracking_error: self.tracking_error,
             tick_time_us: self.tick_time_us,
             tick_time_max_us: self.tick_time_max_us,
             condition: self.gate.inputs.condition,
@@ -1490,6 +1680,44 @@ fn ee_barrier<'g>(
         gradient: grad,
         value: dist - d_min,
     })
+}
+
+/// Checks the position modes' tracking settings of `safety`.
+fn validate_tracking(safety: &SafetySettings) -> Result<(), NodeError> {
+    let bad = |field: &'static str, message: String| NodeError::Config { field, message };
+    if !(safety.tracking_tolerance.is_finite() && safety.tracking_tolerance > 0.0) {
+        return Err(bad(
+            "safety.tracking_tolerance",
+            format!("{} must be positive", safety.tracking_tolerance),
+        ));
+    }
+    if !(safety.tracking_window_s.is_finite() && (0.0..=10.0).contains(&safety.tracking_window_s)) {
+        return Err(bad(
+            "safety.tracking_window_s",
+            format!("{} must lie in [0, 10] s", safety.tracking_window_s),
+        ));
+    }
+    if let Some(w) = safety.tracking_warning {
+        if !(w.is_finite() && w > 0.0) {
+            return Err(bad(
+                "safety.tracking_warning",
+                format!("{w} must be positive"),
+            ));
+        }
+    }
+    if !(1..=64).contains(&safety.max_restarts) {
+        return Err(bad(
+            "safety.max_restarts",
+            format!("{} must lie in 1..=64", safety.max_restarts),
+        ));
+    }
+    if !(safety.restart_window_s.is_finite() && safety.restart_window_s > 0.0) {
+        return Err(bad(
+            "safety.restart_window_s",
+            format!("{} must be positive", safety.restart_window_s),
+        ));
+    }
+    Ok(())
 }
 
 /// Clamps `x` into `[lower, upper]` (infinite limits bound nothing; NaN stays NaN).

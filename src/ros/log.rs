@@ -257,35 +257,73 @@ impl StatusWatch {
             fallback_ticks: 0,
             nonfinite_ticks: 0,
             infeasible_ticks: 0,
+            restarts: 0,
+            not_following_ticks: 0,
+            tracking_warning_ticks: 0,
             ..*s
         });
-        for (kind, all, before, what) in [
+        // The robot not following is an error, logged when it begins (and again, at most
+        // once a second, while it lasts).
+        if s.not_following_ticks > prev.not_following_ticks {
+            log.limited(
+                "robot_not_following",
+                Severity::Error,
+                &format!(
+                    "the robot does not follow its position commands (more than the allowed \
+                     restarts from the measured state, {} in all; tracking error {:.4}): \
+                     holding, no policy motion until a new symmetry condition is accepted",
+                    s.restarts, s.tracking_error
+                ),
+            );
+        }
+        for (kind, all, before, what, tracking) in [
             (
                 "safety_fallback",
                 s.fallback_ticks,
                 prev.fallback_ticks,
                 "safety QP fell back to the clamped policy output",
+                false,
             ),
             (
                 "policy_nonfinite",
                 s.nonfinite_ticks,
                 prev.nonfinite_ticks,
                 "policy returned non-finite velocities (replaced by 0)",
+                false,
             ),
             (
                 "condition_infeasible",
                 s.infeasible_ticks,
                 prev.infeasible_ticks,
                 "the policy is undefined at the current joint state under the accepted condition (a canonicalised policy's flows fail, or a task-space head's lift J⁺ is singular): zero velocity",
+                false,
+            ),
+            (
+                "restarted_from_measured",
+                s.restarts,
+                prev.restarts,
+                "the robot left the envelope of its position commands: commands restarted from the measured state",
+                true,
+            ),
+            (
+                "tracking_error",
+                s.tracking_warning_ticks,
+                prev.tracking_warning_ticks,
+                "tracking error above safety.tracking_warning",
+                true,
             ),
         ] {
             let new = all.saturating_sub(before);
             if new > 0 {
-                log.limited(
-                    kind,
-                    Severity::Warn,
-                    &format!("{what} on {new} tick(s) ({all} in all)"),
-                );
+                let line = if tracking {
+                    format!(
+                        "{what} on {new} tick(s) ({all} in all; tracking error {:.4})",
+                        s.tracking_error
+                    )
+                } else {
+                    format!("{what} on {new} tick(s) ({all} in all)")
+                };
+                log.limited(kind, Severity::Warn, &line);
             }
         }
         self.last = Some(*s);
@@ -380,6 +418,10 @@ mod tests {
             tick_time_us: 1.0,
             tick_time_max_us: 1.0,
             condition: Condition::IDENTITY,
+            restarts: 0,
+            not_following_ticks: 0,
+            tracking_warning_ticks: 0,
+            tracking_error: 0.0,
         };
         w.observe(&s, &mut log); // no state yet
         w.observe(&s, &mut log); // unchanged: nothing
@@ -395,8 +437,31 @@ mod tests {
         w.observe(&s, &mut log); // fresh again + fallback
         s.infeasible_ticks = 2;
         w.observe(&s, &mut log); // a canonicalised policy's condition became infeasible
+        s.restarts = 1;
+        s.tracking_error = 0.031;
+        w.observe(&s, &mut log); // a restart from the measured state
+        s.restarts = 4;
+        s.not_following_ticks = 5;
+        w.observe(&s, &mut log); // within the rate limit: no restart line; not following
+        s.tracking_warning_ticks = 7;
+        w.observe(&s, &mut log); // tracking error
         let l = lines.lock().unwrap().clone();
-        assert_eq!(l.len(), 6, "{l:?}");
+        assert_eq!(l.len(), 9, "{l:?}");
+        assert!(
+            l[6].contains("restarted") && l[6].contains("on 1 tick") && l[6].contains("0.0310"),
+            "{}",
+            l[6]
+        );
+        assert!(
+            l[7].contains("[ERROR]") && l[7].contains("does not follow"),
+            "{}",
+            l[7]
+        );
+        assert!(
+            l[8].contains("tracking error") && l[8].contains("on 7 tick"),
+            "{}",
+            l[8]
+        );
         assert!(l[0].contains("[WARN]") && l[0].contains("no joint state yet"));
         assert!(l[1].contains("joint states received"), "{}", l[1]);
         assert!(l[2].contains("joint states stale"));

@@ -300,6 +300,14 @@ pub struct Status {
     pub tick_time_max_us: f64,
     /// Condition of the last tick.
     pub condition: SymmetryCondition,
+    /// Position modes: restarts from the measured state since start (count).
+    pub restarts: u64,
+    /// Position modes: ticks held because the robot does not follow (count).
+    pub not_following_ticks: u64,
+    /// Position modes: ticks reported as TRACKING_ERROR (count).
+    pub tracking_warning_ticks: u64,
+    /// Position modes: largest |measured − commanded| over the joints at the last tick (rad or m).
+    pub tracking_error: f64,
 }
 
 ros_message!(
@@ -320,5 +328,9 @@ ros_message!(
         ("tick_time_us", "float64"),
         ("tick_time_max_us", "float64"),
         ("condition", "crossym_msgs/SymmetryCondition"),
+        ("restarts", "uint64"),
+        ("not_following_ticks", "uint64"),
+        ("tracking_warning_ticks", "uint64"),
+        ("tracking_error", "float64"),
     ]
 );

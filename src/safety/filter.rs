@@ -79,6 +79,28 @@ pub struct SafetySettings {
     /// state (a reset, a robot that does not follow).
     #[serde(default = "d_track")]
     pub tracking_tolerance: f64,
+    /// Position modes: how long (s) a position command keeps pulling the robot. A servo
+    /// whose step response does not overshoot (a first-order lag, an overdamped or
+    /// critically damped loop) stays inside the hull of the commands of its last few time
+    /// constants; the node checks the measured position against the commands of this window
+    /// before the measurement (about five time constants of the robot's position loop, plus
+    /// its trajectory interpolation). 0: the commands since the measurement only (a robot
+    /// that executes each command at once).
+    #[serde(default)]
+    pub tracking_window_s: f64,
+    /// Position modes: a measured position farther than this (rad or m) from the command in
+    /// effect when it was measured, on any joint, for longer than `tracking_window_s`, is
+    /// reported (status `TRACKING_ERROR`, a warning on the terminal). `None`: not reported.
+    #[serde(default)]
+    pub tracking_warning: Option<f64>,
+    /// Position modes: after this many restarts from the measured state within
+    /// `restart_window_s`, the node decides the robot does not follow, holds the measured
+    /// position and reports `ROBOT_NOT_FOLLOWING` until a new condition is accepted.
+    #[serde(default = "d_max_restarts")]
+    pub max_restarts: u32,
+    /// The window (s) of `max_restarts`.
+    #[serde(default = "d_restart_window")]
+    pub restart_window_s: f64,
 }
 
 fn d_dt() -> f64 {
@@ -105,6 +127,12 @@ fn d_max_age() -> f64 {
 fn d_track() -> f64 {
     2e-3
 }
+fn d_max_restarts() -> u32 {
+    3
+}
+fn d_restart_window() -> f64 {
+    2.0
+}
 
 impl SafetySettings {
     /// The actuation latency `L` (s): `latency_s`, or one period.
@@ -127,6 +155,10 @@ impl Default for SafetySettings {
             state_delay_s: 0.0,
             max_state_age_s: d_max_age(),
             tracking_tolerance: d_track(),
+            tracking_window_s: 0.0,
+            tracking_warning: None,
+            max_restarts: d_max_restarts(),
+            restart_window_s: d_restart_window(),
         }
     }
 }

@@ -166,6 +166,17 @@ impl CommandHistory {
         }
     }
 
+    /// The newest command issued at or before `t_s` (s); `None` when every retained
+    /// command is newer (the rest command at `t = −∞` counts until it is evicted).
+    /// Allocation-free.
+    pub fn at(&self, t_s: f64) -> Option<&[f64]> {
+        let n = self.n;
+        (0..self.len)
+            .map(|age| (self.head + self.cap - age) % self.cap)
+            .find(|&k| self.times[k] <= t_s)
+            .map(|k| &self.values[k * n..(k + 1) * n])
+    }
+
     /// Capacity (commands).
     pub fn capacity(&self) -> usize {
         self.cap
@@ -204,5 +215,19 @@ mod tests {
         }
         h.window(0.0, 0.04, 0.01, &vmax, &mut w);
         assert_eq!((w.past_max[0], w.past_min[0]), (9.0, -9.0));
+    }
+
+    #[test]
+    fn at_is_the_newest_command_issued_by_then() {
+        let mut h = CommandHistory::new(1, 3);
+        assert_eq!(h.at(-1e9), Some(&[0.0][..]), "the rest command of t = −∞");
+        for (k, u) in [1.0, 2.0, 3.0].into_iter().enumerate() {
+            h.push(0.01 * k as f64, &[u]);
+        }
+        assert_eq!(h.at(0.015), Some(&[2.0][..]));
+        assert_eq!(h.at(0.02), Some(&[3.0][..]));
+        assert_eq!(h.at(1.0), Some(&[3.0][..]));
+        // Capacity 3: the rest command and nothing older than 0.0 is retained.
+        assert_eq!(h.at(-0.5), None);
     }
 }

@@ -17,6 +17,7 @@
 //!
 //! [`MockHardware`] is the simulation without DDS; [`process`] runs it as a DDS node.
 
+pub mod physics;
 pub mod process;
 pub mod scenario;
 pub mod stress;
@@ -91,6 +92,10 @@ pub struct MockHwConfig {
     /// After a reset, commands arriving within this time (s) are discarded: they were
     /// computed from the pre-reset state (a teleport is a simulation-only event).
     pub reset_settle_s: f64,
+    /// Which robot `crossym mock-hw` simulates (`--plant` overrides it).
+    pub plant: physics::Plant,
+    /// The physics robot's settings (`plant = "mujoco"`).
+    pub mujoco: physics::MujocoConfig,
 }
 
 impl Default for MockHwConfig {
@@ -115,6 +120,8 @@ impl Default for MockHwConfig {
             seed: 0,
             violation_tolerance: 1e-6,
             reset_settle_s: 0.05,
+            plant: physics::Plant::Kinematic,
+            mujoco: physics::MujocoConfig::default(),
         }
     }
 }
@@ -155,7 +162,7 @@ impl MockHwConfig {
                 self.drop_probability
             ));
         }
-        Ok(())
+        self.mujoco.validate().map_err(|m| format!("mujoco: {m}"))
     }
 }
 

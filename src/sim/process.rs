@@ -96,7 +96,7 @@ pub fn run(
                         Cmd::Traj(s) => loop {
                             match s.take() {
                                 Ok(Some((m, _))) => {
-                                    let p = m.points.first().map(|p| p.positions.as_slice()).unwrap_or(&[]);
+                                    let p = m.points.last().map(|p| p.positions.as_slice()).unwrap_or(&[]);
                                     hw.command(p);
                                 }
                                 Ok(None) => break,

@@ -17,6 +17,7 @@ mod kinematics;
 mod lift_compose;
 mod morpho_robots;
 mod operator;
+mod physics;
 mod policy;
 mod rby1_tasks;
 mod recordings;

@@ -725,11 +725,21 @@ fn position_mode_never_leaves_the_limits() {
         core.tick(103.0, &mut cmd);
         assert_eq!(cmd.positions, held);
         assert!(cmd.velocities.iter().all(|&v| v == 0.0));
-        // The trajectory message carries one point reached after Δt.
-        let traj = cmd.to_joint_trajectory(core.joint_names(), 0.01);
+        // The trajectory message carries one point reached after Δt, or two: the previous
+        // command at 0, then this one.
+        let traj = cmd.to_joint_trajectory(core.joint_names(), 0.01, false);
         assert_eq!(traj.points.len(), 1);
         assert_eq!(traj.points[0].time_from_start.nanosec, 10_000_000);
         assert_eq!(traj.joint_names, core.joint_names());
+        let traj = cmd.to_joint_trajectory(core.joint_names(), 0.01, true);
+        assert_eq!(traj.points.len(), 2);
+        assert_eq!(
+            traj.points[0].positions, held,
+            "starts where the last command ended"
+        );
+        assert_eq!(traj.points[0].time_from_start.nanosec, 0);
+        assert_eq!(traj.points[1].positions, cmd.positions);
+        assert_eq!(traj.points[1].time_from_start.nanosec, 10_000_000);
     }
 }
 

@@ -110,6 +110,10 @@ class Status(IdlStruct, typename="crossym_msgs::msg::dds_::Status_"):
     tick_time_us: types.float64 = 0.0
     tick_time_max_us: types.float64 = 0.0
     condition: SymmetryCondition = field(default_factory=SymmetryCondition)
+    restarts: types.uint64 = 0
+    not_following_ticks: types.uint64 = 0
+    tracking_warning_ticks: types.uint64 = 0
+    tracking_error: types.float64 = 0.0
 
 
 # crossym_msgs/Status constants
@@ -746,7 +750,8 @@ def _cdr_expected_bytes():
 
     st = Status(header=Header(stamp=Time(sec=5, nanosec=6), frame_id=""), code=17, message="m", last_error="e",
                 active_constraints=1, rejected_joint_states=2, rejected_conditions=3, ticks=4, stale_ticks=5,
-                joint_state_age_s=0.25, tick_time_us=1.5, tick_time_max_us=2.5, condition=cond)
+                joint_state_age_s=0.25, tick_time_us=1.5, tick_time_max_us=2.5, condition=cond,
+                restarts=9, not_following_ticks=10, tracking_warning_ticks=11, tracking_error=0.125)
     b = struct.pack("<iI", 5, 6)
     b = s(b, "")
     b += struct.pack("<b", 17)
@@ -756,6 +761,7 @@ def _cdr_expected_bytes():
     b = align(b, 4) + struct.pack("<iI", 7, 8)  # condition.header.stamp
     b = s(b, "x")
     b = align(b, 8) + struct.pack("<ddb", 0.5, 0.8, -1)
+    b = align(b, 8) + struct.pack("<QQQd", 9, 10, 11, 0.125)
     out.append(("Status", st, enc + b))
     return out
 

@@ -346,9 +346,13 @@ impl ControlThread {
     /// Publishes `cmd` (a copy to the recorder with the tick time and input `sequence`).
     fn publish_command(&self, cmd: &Command, now_ns: u64, sequence: u32) -> bool {
         let rec = self.links.rec.as_ref().map(|r| (r, now_ns, sequence));
-        self.ends
-            .command
-            .publish(cmd, &self.links.names, self.core.config().period_s, rec)
+        self.ends.command.publish(
+            cmd,
+            &self.links.names,
+            self.core.config().period_s,
+            self.core.config().trajectory_start_point,
+            rec,
+        )
     }
 
     /// Publishes `~/status` (and hands the snapshot to the log); false on a publish error.
@@ -398,6 +402,7 @@ impl CommandPublisher {
         cmd: &Command,
         names: &[String],
         dt: f64,
+        start_point: bool,
         rec: Option<(&Recorder, u64, u32)>,
     ) -> bool {
         match self {
@@ -409,8 +414,9 @@ impl CommandPublisher {
                 p.publish(m).is_ok()
             }
             CommandPublisher::Trajectory(p) => {
-                let mut m = cmd.to_joint_trajectory(names, dt);
-                m.header.stamp = msg::Time::from_secs_f64(dds::wall_time_s());
+                // Stamp 0: the controller starts the trajectory when it receives it (a stamp
+                // from this machine's clock would shift it by any offset between the clocks).
+                let m = cmd.to_joint_trajectory(names, dt, start_point);
                 if let Some((r, t, q)) = rec {
                     r.send(RecordItem::Trajectory(m.clone(), t, q));
                 }
