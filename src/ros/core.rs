@@ -1554,14 +1554,14 @@ impl NodeCore {
         }
         self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
             StatusCode::InvalidInput
-        } else if restarted {
-            StatusCode::RestartedFromMeasured
         } else if report.status == SafetyStatus::Fallback {
             StatusCode::SafetyFallback
         } else if infeasible {
             StatusCode::ConditionInfeasible
         } else if report.policy_nonfinite {
             StatusCode::PolicyNonfinite
+        } else if restarted {
+            StatusCode::RestartedFromMeasured
         } else if lagging {
             StatusCode::TrackingError
         } else if report.active > 0 {

@@ -128,7 +128,9 @@ fn d_track() -> f64 {
     2e-3
 }
 fn d_max_restarts() -> u32 {
-    3
+    // With no lag window a robot that stops restarts nearly every tick: 64 within 2 s
+    // (0.64 s of a frozen robot at 100 Hz) tells it from a reset's few restarts.
+    64
 }
 fn d_restart_window() -> f64 {
     2.0

@@ -685,10 +685,10 @@ fn rby1_demo(config: &str, conditions: &[&str], domain: u16, name: &str) {
         String::from_utf8_lossy(&out.stderr),
         log_tail(&dir.join("node.log"))
     );
-    // A 3-D path figure, a recorded bag with position commands on the driver's topic.
+    // A 3-D path figure, a recorded bag with trajectories on the vendor controller's topic.
     assert!(std::fs::metadata(dir.join("demo.png")).unwrap().len() > 1000);
     let bag = crossym::bag::Bag::open(&dir.join("bag")).unwrap();
-    let cmd_topic = bag.topic("/position_controller/commands").unwrap();
+    let cmd_topic = bag.topic("/both_arms_controller/joint_trajectory").unwrap();
     // Recorded over the demo's fixed durations: any count beyond "some" would be a rate
     // (`demo: OK` already required their offline replay to match).
     assert!(bag.topics[cmd_topic].count > 0);

@@ -4,6 +4,8 @@
 //!
 //! Needs `../shared` (the vendor's model files) and PyPI `mujoco` + `cyclonedds`
 //! (`physics/install.sh`, run by `.ci/run`); missing either is a failure, not a skip.
+//! Both tests run in real time against a robot paced by the wall clock: `.ci/run` runs them
+//! in their own step, one at a time (`--ignored --test-threads=1`), not beside the suite.
 
 use std::path::{Path, PathBuf};
 
@@ -120,6 +122,7 @@ fn restarts(log: &str) -> u64 {
 /// is seen to fail: the node restarts again and again and then reports the robot as not
 /// following.
 #[test]
+#[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
 fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
     require_physics();
     let dir = temp_dir("physics-letter");
@@ -166,9 +169,10 @@ fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
 }
 
 /// A joint frozen while the robot draws (the robot stops following): the node holds within
-/// a bounded time (more than 3 restarts within 5 s; the first restart once the frozen
+/// a bounded time (more than 2 restarts within 5 s; the first restart once the frozen
 /// joint leaves the 0.6 s lag window) and says so on the terminal and in its status.
 #[test]
+#[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
 fn physics_rby1_that_stops_following_is_held_and_reported() {
     require_physics();
     let dir = temp_dir("physics-freeze");
@@ -176,10 +180,10 @@ fn physics_rby1_that_stops_following_is_held_and_reported() {
         &dir,
         &[(
             "version = \"1.0\"",
-            "version = \"1.0\"\nfreeze_joint = \"left_arm_0\"\nfreeze_after_s = 5.0",
+            "version = \"1.0\"\nfreeze_joint = \"left_arm_0\"\nfreeze_after_s = 3.0",
         )],
     );
-    let r = demo(&cfg, &dir.join("run"), "0:1:1", "9");
+    let r = demo(&cfg, &dir.join("run"), "0:1:1", "10");
     assert!(!r.ok, "the demo passed with a frozen joint:\n{}", r.output);
     assert!(
         r.output.contains("node status codes") && r.output.contains("23"),
@@ -189,7 +193,7 @@ fn physics_rby1_that_stops_following_is_held_and_reported() {
     let start = r.summary["started_wall_time_s"]
         .as_f64()
         .unwrap_or_else(|| panic!("summary: {}", r.summary));
-    let frozen_at = start + 5.0;
+    let frozen_at = start + 3.0;
     let halted_at = r
         .node_log
         .lines()

@@ -825,12 +825,16 @@ fn a_nonfinite_policy_output_is_reported_and_never_published() {
             v[1] = if tick % 2 == 0 { f64::INFINITY } else { -1e300 };
         })));
         let mut cmd = core.command();
-        let q = Q0.to_vec();
+        let mut q = Q0.to_vec();
         let mut nonfinite = 0;
         for k in 1..=20 {
             let t = k as f64 * 0.01;
             core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
             let r = core.tick(t, &mut cmd);
+            if mode == OutputMode::Position {
+                // A robot that follows its position commands.
+                q.copy_from_slice(&cmd.positions);
+            }
             // A QP that does not converge outranks it (the clamp is then commanded).
             assert!(
                 matches!(
