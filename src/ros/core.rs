@@ -1026,6 +1026,11 @@ pub struct NodeCore {
     // the robot was found not following, and the tracking error's watch.
     restart_times: Vec<f64>,
     restart_head: usize,
+    // The joint state the last tick saw (jump detection).
+    prev_meas_q: Vec<f64>,
+    prev_meas_time_s: f64,
+    prev_meas_seq: u64,
+    cmd_speed: Vec<f64>,
     halted: bool,
     halted_condition_seq: u64,
     tracking_high_since: Option<f64>,
@@ -1076,13 +1081,17 @@ impl NodeCore {
     ///
     /// A policy whose sidecar records a composition is canonicalised through `kin`
     /// ([`AnyPolicy::new`]): the node then accepts any condition that is feasible from the
-    /// current joint state ([`ConditionFeasibility`]) instead of a trained box.
+    /// current joint state ([`ConditionFeasibility`]) instead of a trained box. `safety`
+    /// replaces `cfg.safety`.
     pub fn new(
         kin: Kinematics,
         policy: impl Into<AnyPolicy>,
         safety: SafetySettings,
-        cfg: NodeConfig,
+        mut cfg: NodeConfig,
     ) -> Result<Self, NodeError> {
+        // One source of the safety settings: the tick reads the tracking settings from
+        // `cfg`, the filter is built from `safety`.
+        cfg.safety = safety;
         cfg.validate()?;
         let policy = match policy.into() {
             AnyPolicy::Plain(p) if p.meta.canonicalised.is_some() || p.meta.task_head.is_some() => {
@@ -1190,6 +1199,10 @@ impl NodeCore {
             policy_override: None,
             restart_times: vec![f64::NEG_INFINITY; safety.max_restarts as usize + 1],
             restart_head: 0,
+            prev_meas_q: vec![0.0; n],
+            prev_meas_time_s: f64::NEG_INFINITY,
+            prev_meas_seq: 0,
+            cmd_speed: vec![0.0; n],
             halted: false,
             halted_condition_seq: 0,
             tracking_high_since: None,
@@ -1362,6 +1375,54 @@ impl NodeCore {
         })
     }
 
+    /// A braking tick ([`Self::brake`]) reported as `code`.
+    fn braking(&mut self, now_s: f64, out: &mut Command, code: StatusCode) -> TickReport {
+        let publish = self.brake(now_s, out);
+        self.code = code;
+        self.active = 0;
+        TickReport {
+            code,
+            publish,
+            safety: Some(SafetyStatus::Braking),
+            active_constraints: 0,
+        }
+    }
+
+    /// Whether the measured state jumped since the previous joint state this tick saw. A
+    /// servo that does not overshoot moves no faster than its commands did over the tracking
+    /// window (its velocity is a positive average of theirs), so a joint that moved farther
+    /// than 1.5 × that speed × (the time between the two measurements + one period + the
+    /// latency `L`), plus
+    /// half the tracking tolerance (noise, sag), was moved by something else: a reset,
+    /// another controller, a glitch. Remembers the measurement for the next call.
+    fn measured_jump(&mut self) -> bool {
+        let i = &self.gate.inputs;
+        if i.joint_state_seq == self.prev_meas_seq {
+            return false;
+        }
+        let dt = i.measured_time_s - self.prev_meas_time_s;
+        let slack = 0.5 * self.cfg.safety.tracking_tolerance;
+        let since = i.measured_time_s
+            - self.filter.settings().state_delay_s
+            - self.filter.settings().latency()
+            - self.cfg.safety.tracking_window_s
+            - dt.max(0.0);
+        self.pos_history.max_speed(since, &mut self.cmd_speed);
+        // A robot that takes each position command at once moves a whole period's step
+        // between two measurements however close they are, and commands held up by the
+        // latency envelope arrive together: one period and the latency more.
+        let reach = dt + self.cfg.period_s + self.filter.settings().latency();
+        let jumped = self.prev_meas_seq != 0
+            && dt >= 0.0
+            && (0..self.n).any(|j| {
+                (i.q[j] - self.prev_meas_q[j]).abs() > 1.5 * self.cmd_speed[j] * reach + slack
+            });
+        self.prev_meas_q.copy_from_slice(&i.q);
+        self.prev_meas_time_s = i.measured_time_s;
+        self.prev_meas_seq = i.joint_state_seq;
+        jumped
+    }
+
     /// Records a restart at `now_s`; true when it makes more than `max_restarts` within
     /// `restart_window_s` (the robot does not follow).
     fn count_restart(&mut self, now_s: f64) -> bool {
@@ -1391,30 +1452,14 @@ impl NodeCore {
         };
         if !fresh {
             self.stale_ticks = self.stale_ticks.saturating_add(1);
-            let publish = self.brake(now_s, out);
-            self.code = StatusCode::StaleJointStates;
-            self.active = 0;
-            return TickReport {
-                code: self.code,
-                publish,
-                safety: Some(SafetyStatus::Braking),
-                active_constraints: 0,
-            };
+            return self.braking(now_s, out, StatusCode::StaleJointStates);
         }
         // Position modes: a robot found not following stays held (braking, then holding the
         // last command) until a new condition is accepted.
         if self.halted {
             if self.gate.inputs.condition_seq == self.halted_condition_seq {
                 self.not_following_ticks = self.not_following_ticks.saturating_add(1);
-                let publish = self.brake(now_s, out);
-                self.code = StatusCode::RobotNotFollowing;
-                self.active = 0;
-                return TickReport {
-                    code: self.code,
-                    publish,
-                    safety: Some(SafetyStatus::Braking),
-                    active_constraints: 0,
-                };
+                return self.braking(now_s, out, StatusCode::RobotNotFollowing);
             }
             // A new condition: start again from the measured state, with a clean count.
             self.halted = false;
@@ -1427,22 +1472,19 @@ impl NodeCore {
         let mut restarted = false;
         let mut lagging = false;
         if self.is_position() {
-            let tracks = !self.has_hold || self.tracks_commands();
+            // With a lag window, a measured jump (a reset, a robot moved by something else)
+            // restarts even when it lands inside the envelope of the window's commands.
+            // Without one the envelope is the commands since the measurement: a jump
+            // leaves it anyway.
+            let jumped = self.cfg.safety.tracking_window_s > 0.0 && self.measured_jump();
+            let tracks = !self.has_hold || (!jumped && self.tracks_commands());
             if !tracks && self.count_restart(now_s) {
                 // Repeated restarts: the robot does not follow. Hold where the commands are.
                 self.halted = true;
                 self.halted_condition_seq = self.gate.inputs.condition_seq;
                 self.not_following_ticks = self.not_following_ticks.saturating_add(1);
                 self.tracking_high_since = None;
-                let publish = self.brake(now_s, out);
-                self.code = StatusCode::RobotNotFollowing;
-                self.active = 0;
-                return TickReport {
-                    code: self.code,
-                    publish,
-                    safety: Some(SafetyStatus::Braking),
-                    active_constraints: 0,
-                };
+                return self.braking(now_s, out, StatusCode::RobotNotFollowing);
             }
             if !self.has_hold || !tracks {
                 restarted = self.has_hold;

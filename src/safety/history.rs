@@ -177,6 +177,34 @@ impl CommandHistory {
             .map(|k| &self.values[k * n..(k + 1) * n])
     }
 
+    /// Per joint, the largest speed `|u_k − u_{k−1}| / (t_k − t_{k−1})` between consecutive
+    /// commands issued at or after `s_s` (s) into `out` (0 when fewer than two; a pair at the
+    /// same time counts as infinitely fast). For position commands: how fast the commands
+    /// moved. Allocation-free.
+    pub fn max_speed(&self, s_s: f64, out: &mut [f64]) {
+        let n = self.n;
+        out.fill(0.0);
+        for age in 1..self.len {
+            let k = (self.head + self.cap - age + 1) % self.cap;
+            let p = (self.head + self.cap - age) % self.cap;
+            if self.times[p] < s_s {
+                break;
+            }
+            let dt = self.times[k] - self.times[p];
+            for (i, o) in out.iter_mut().enumerate() {
+                let du = (self.values[k * n + i] - self.values[p * n + i]).abs();
+                let v = if dt > 0.0 {
+                    du / dt
+                } else if du > 0.0 {
+                    f64::INFINITY
+                } else {
+                    0.0
+                };
+                *o = o.max(v);
+            }
+        }
+    }
+
     /// Capacity (commands).
     pub fn capacity(&self) -> usize {
         self.cap
@@ -229,5 +257,24 @@ mod tests {
         assert_eq!(h.at(1.0), Some(&[3.0][..]));
         // Capacity 3: the rest command and nothing older than 0.0 is retained.
         assert_eq!(h.at(-0.5), None);
+    }
+
+    #[test]
+    fn max_speed_is_the_fastest_step_since_then() {
+        let mut h = CommandHistory::new(1, 8);
+        let mut v = [0.0];
+        h.max_speed(0.0, &mut v);
+        assert_eq!(v, [0.0], "one command: no speed");
+        for (t, u) in [(0.0, 0.0), (0.01, 0.01), (0.02, 0.04), (0.03, 0.05)] {
+            h.push(t, &[u]);
+        }
+        h.max_speed(0.0, &mut v);
+        assert!((v[0] - 3.0).abs() < 1e-9, "{v:?}");
+        // Only the pair issued at or after 0.02.
+        h.max_speed(0.02, &mut v);
+        assert!((v[0] - 1.0).abs() < 1e-9, "{v:?}");
+        h.push(0.03, &[0.06]);
+        h.max_speed(0.025, &mut v);
+        assert_eq!(v, [f64::INFINITY], "a step at one time");
     }
 }

@@ -2,8 +2,9 @@
 //! `/joint_states`, with configurable latency, jitter, noise, drops and faults.
 //!
 //! Model (per step of `Δt_sim = 1/rate_hz`): velocity mode `q ← q + Δt_sim·v_cmd`;
-//! position / trajectory mode `q ← q_cmd` (ideal position servo, as RB-Y1's position
-//! interface is modelled). A command takes effect `latency_s + U(−jitter_s, jitter_s)` after
+//! position / trajectory mode `q ← q_cmd` (ideal position servo), its velocity counted
+//! as the step over the time since the previous command (at most 0.1 s: a step after a
+//! longer pause is a jump). A command takes effect `latency_s + U(−jitter_s, jitter_s)` after
 //! it arrives and is lost with probability `drop_probability`. The last command is held
 //! forever (as ros2_control's ForwardCommandController does). Published positions carry
 //! Gaussian noise `N(0, noise_std²)`. Limits are **not** enforced: every position or
@@ -236,6 +237,9 @@ pub struct MockHardware {
     q: Vec<f64>,
     cmd: Vec<f64>,
     has_cmd: bool,
+    // When the command in force was applied (s): a position command's step is spread over
+    // the time since the one before it when its velocity is measured.
+    applied_s: f64,
     pending: Vec<(f64, Vec<f64>)>,
     rng: StdRng,
     time_s: f64,
@@ -307,6 +311,7 @@ impl MockHardware {
             q,
             cmd: vec![0.0; n],
             has_cmd: false,
+            applied_s: f64::NEG_INFINITY,
             pending: Vec::new(),
             rng,
             time_s: 0.0,
@@ -376,6 +381,7 @@ impl MockHardware {
         }
         self.cmd.fill(0.0);
         self.has_cmd = false;
+        self.applied_s = f64::NEG_INFINITY;
         self.pending.clear();
         self.reset_at_s = Some(self.time_s);
         self.summary.resets += 1;
@@ -442,11 +448,16 @@ impl MockHardware {
         let now = self.time_s + dt;
         // Apply due commands in arrival order (the latest due one wins).
         let mut k = 0;
+        // The time a position command's step spans: since the previous command was applied
+        // (commands at 100 Hz stepped at 200 Hz move in one step what took a period).
+        let mut span = dt;
         while k < self.pending.len() {
             if self.pending[k].0 <= now {
                 let (_, c) = self.pending.remove(k);
                 self.cmd = c;
                 self.has_cmd = true;
+                span = (now - self.applied_s).clamp(dt, 0.1);
+                self.applied_s = now;
             } else {
                 k += 1;
             }
@@ -463,7 +474,7 @@ impl MockHardware {
                     }
                     OutputMode::Position | OutputMode::Trajectory => {
                         self.q[i] = self.cmd[k];
-                        (self.q[i] - before) / dt
+                        (self.q[i] - before) / span
                     }
                 };
                 self.vel[k] = v;

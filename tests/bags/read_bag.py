@@ -551,7 +551,7 @@ def qos_check(mcap_path: Path, info, checks: Checks) -> None:
                    False, f'{type(err).__name__}: {err}')
 
 
-STATUS_CODES = {0, 1, 2, 3, 4, 5, 16, 17, 18, 19, 20}
+STATUS_CODES = {0, 1, 2, 3, 4, 5, 16, 17, 18, 19, 20, 21, 22, 23, 24}
 
 
 def semantic_checks(topics, checks: Checks) -> None:
@@ -575,6 +575,10 @@ def semantic_checks(topics, checks: Checks) -> None:
                 c = m['condition']
                 if m['code'] not in STATUS_CODES or c['reflection'] not in (1, -1) or not c['scale'] > 0:
                     bad.append(f'@{ts}: code {m["code"]}, condition {c}')
+                # Bags recorded before Status had tracking_error lack it (their own schema).
+                e = m.get('tracking_error', 0.0)
+                if not (math.isfinite(e) and e >= 0):
+                    bad.append(f'@{ts}: tracking_error {e}')
             if len(bad) > 3:
                 break
         checks.add(f'{t}: field values plausible for {typ}', not bad, '; '.join(bad[:3]))

@@ -174,6 +174,10 @@ def main() -> int:
                 tick_time_max_us=150.0 + 2 * k,
                 condition=Cond(header=header(active[0]), theta=active[1], scale=active[2],
                                reflection=active[3]),
+                restarts=0,
+                not_following_ticks=0,
+                tracking_warning_ticks=0,
+                tracking_error=0.001 * (k % 4),
             )))
     events.sort(key=lambda e: (e[0], e[1]))
 

@@ -945,3 +945,192 @@ fn end_effector_barrier_keeps_the_hands_apart_in_a_closed_loop() {
         "without the barrier the hands stayed {without} m apart"
     );
 }
+
+/// A node in position mode with `safety` on the planar arms, its policy a constant push.
+fn lag_node(safety: SafetySettings) -> NodeCore {
+    let robot = common::planar();
+    let n = robot.kinematics.dof();
+    let p = policy(n, &[0.4, -0.3, 0.35, 0.2, -0.4, 0.3, -0.35, -0.2]);
+    let cfg = NodeConfig {
+        output: OutputMode::Position,
+        ..NodeConfig::default()
+    };
+    NodeCore::new(robot.kinematics, p, safety, cfg).unwrap()
+}
+
+/// A servo of this test's own: a first-order lag of time constant 0.1 s toward the last
+/// position command, sagging by 5 mrad, stepped at 1 ms; `frozen` joints do not move.
+struct LagServo {
+    q: Vec<f64>,
+    target: Vec<f64>,
+    frozen: Vec<bool>,
+}
+
+impl LagServo {
+    fn advance(&mut self, dt: f64) {
+        for _ in 0..(dt / 1e-3).round() as usize {
+            for j in 0..self.q.len() {
+                if !self.frozen[j] {
+                    self.q[j] += (self.target[j] - 0.005 - self.q[j]) * (1e-3 / 0.1);
+                }
+            }
+        }
+    }
+}
+
+/// Runs `ticks` ticks of `core` against `servo` from `t0` (s); the status codes seen.
+fn run_lagging(
+    core: &mut NodeCore,
+    servo: &mut LagServo,
+    cmd: &mut Command,
+    t0: f64,
+    ticks: usize,
+) -> Vec<StatusCode> {
+    let mut codes = Vec::new();
+    for k in 0..ticks {
+        let t = t0 + k as f64 * 0.01;
+        core.on_joint_state(&joint_state(core, &servo.q, t), t)
+            .unwrap();
+        let r = core.tick(t, cmd);
+        assert!(r.publish);
+        assert_safe(core, cmd);
+        servo.target.copy_from_slice(&cmd.positions);
+        servo.advance(0.01);
+        codes.push(r.code);
+    }
+    codes
+}
+
+const LAG_SETTINGS: SafetySettings = SafetySettings {
+    dt: 0.01,
+    margin: 0.01,
+    default_acceleration: 10.0,
+    weight_epsilon: 1e-3,
+    min_ee_distance: None,
+    barrier_gain: 5.0,
+    max_iter: 50,
+    latency_s: None,
+    state_delay_s: 0.0,
+    max_state_age_s: 0.1,
+    tracking_tolerance: 0.02,
+    tracking_window_s: 0.6,
+    tracking_warning: Some(0.1),
+    max_restarts: 2,
+    restart_window_s: 5.0,
+};
+
+/// A lagging, sagging servo is followed without a restart when the node looks at the
+/// commands of the last 0.6 s; the former rule (2 mrad around the commands since the
+/// measurement) restarts it again and again and then holds it as not following.
+#[test]
+fn a_lagging_servo_is_followed_and_the_former_rule_is_not() {
+    let mut core = lag_node(LAG_SETTINGS);
+    let mut cmd = core.command();
+    let mut servo = LagServo {
+        q: Q0.to_vec(),
+        target: Q0.to_vec(),
+        frozen: vec![false; 8],
+    };
+    let codes = run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 150);
+    assert!(
+        codes
+            .iter()
+            .all(|c| matches!(c, StatusCode::NoWarning | StatusCode::JointBound)),
+        "{codes:?}"
+    );
+    let st = core.status();
+    assert_eq!((st.restarts, st.not_following_ticks), (0, 0), "{st:?}");
+    assert!(st.tracking_error > 0.01, "the servo lags: {st:?}");
+    // The same servo under the former rule.
+    let former = SafetySettings {
+        tracking_tolerance: 0.002,
+        tracking_window_s: 0.0,
+        ..LAG_SETTINGS
+    };
+    let mut core = lag_node(former);
+    let mut servo = LagServo {
+        q: Q0.to_vec(),
+        target: Q0.to_vec(),
+        frozen: vec![false; 8],
+    };
+    let codes = run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 150);
+    assert!(codes.contains(&StatusCode::RobotNotFollowing), "{codes:?}");
+    assert!(core.status().restarts > 2);
+}
+
+/// A reset that puts the robot back where it was 0.3 s earlier (inside the envelope of the
+/// recent commands) is a jump no servo makes: the node restarts from the measured state at
+/// once instead of stepping the robot back onto its commanded path.
+#[test]
+fn a_reset_inside_the_envelope_restarts_from_the_measured_state() {
+    let mut core = lag_node(LAG_SETTINGS);
+    let mut cmd = core.command();
+    let mut servo = LagServo {
+        q: Q0.to_vec(),
+        target: Q0.to_vec(),
+        frozen: vec![false; 8],
+    };
+    run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 70);
+    let earlier = servo.q.clone();
+    run_lagging(&mut core, &mut servo, &mut cmd, 0.7, 30);
+    servo.q.copy_from_slice(&earlier);
+    let t = 1.0;
+    core.on_joint_state(&joint_state(&core, &servo.q, t), t)
+        .unwrap();
+    let r = core.tick(t, &mut cmd);
+    assert_eq!(r.code, StatusCode::RestartedFromMeasured, "{r:?}");
+    for (j, l) in core.limits().iter().enumerate() {
+        let step = (cmd.positions[j] - servo.q[j]).abs();
+        assert!(
+            step <= l.velocity * 0.01 + 1e-12,
+            "joint {j}: the command is {step} from the measured state"
+        );
+    }
+    assert_eq!(core.status().restarts, 1);
+}
+
+/// A joint that stops moving (frozen, held): within a bounded time the node holds — its
+/// commands stop changing — and reports ROBOT_NOT_FOLLOWING until a new condition arrives.
+#[test]
+fn a_servo_that_stops_following_is_held_until_a_new_condition() {
+    let mut core = lag_node(LAG_SETTINGS);
+    let mut cmd = core.command();
+    let mut servo = LagServo {
+        q: Q0.to_vec(),
+        target: Q0.to_vec(),
+        frozen: vec![false; 8],
+    };
+    run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 50);
+    servo.frozen[0] = true;
+    // 5 s: the first restart once the frozen joint leaves the 0.6 s window, then
+    // `max_restarts` more.
+    let codes = run_lagging(&mut core, &mut servo, &mut cmd, 0.5, 500);
+    let held = codes
+        .iter()
+        .position(|&c| c == StatusCode::RobotNotFollowing)
+        .unwrap_or_else(|| panic!("never held: {codes:?}"));
+    assert!(
+        held * 10 <= 4000,
+        "held {} ms after the joint froze",
+        held * 10
+    );
+    assert!(codes[held..]
+        .iter()
+        .all(|&c| c == StatusCode::RobotNotFollowing));
+    // Braked to a hold: the last second's commands do not change.
+    let before = cmd.positions.clone();
+    run_lagging(&mut core, &mut servo, &mut cmd, 5.5, 100);
+    assert_eq!(cmd.positions, before);
+    assert!(cmd.velocities.iter().all(|&v| v == 0.0));
+    // A new condition lets the policy drive again, from the measured state.
+    core.on_condition(&msg::SymmetryCondition {
+        header: msg::Header::default(),
+        theta: 0.0,
+        scale: 1.0,
+        reflection: 1,
+    })
+    .unwrap();
+    servo.frozen[0] = false;
+    let codes = run_lagging(&mut core, &mut servo, &mut cmd, 6.5, 50);
+    assert!(!codes.contains(&StatusCode::RobotNotFollowing), "{codes:?}");
+}
