@@ -448,6 +448,13 @@ def make_parser() -> argparse.ArgumentParser:
     ap.add_argument("--freeze-joint", help="fault: lock this joint ...")
     ap.add_argument("--freeze-after-s", type=float, help="... from this many wall seconds after start")
     ap.add_argument("--hold-after-s", type=float, help="fault: collision hold from this many wall seconds after start")
+    ap.add_argument("--sensor-fault", choices=["frozen", "silent", "nan", "missing"],
+                    help="fault of the published joint states while the robot keeps moving: frozen "
+                         "(the state stops changing), silent (none published), nan (--sensor-fault-joint's "
+                         "position NaN), missing (that joint left out)")
+    ap.add_argument("--sensor-fault-joint", help="joint of nan/missing (default: the first controlled joint)")
+    ap.add_argument("--sensor-fault-after-s", type=float, default=0.0, help="start (wall s after start)")
+    ap.add_argument("--sensor-fault-s", type=float, help="length (s; default: to the end)")
     ap.add_argument("--duration", type=float, default=0.0, help="exit after this many wall seconds (0: run until signal)")
     ap.add_argument("--summary", metavar="PATH", help="write the JSON summary here on exit")
     return ap
@@ -457,6 +464,9 @@ def main(argv=None) -> int:
     args = make_parser().parse_args(argv)
     if (args.freeze_joint is None) != (args.freeze_after_s is None):
         print("rby1_mujoco: --freeze-joint and --freeze-after-s go together", file=sys.stderr)
+        return 2
+    if args.sensor_fault_joint is not None and args.sensor_fault not in ("nan", "missing"):
+        print("rby1_mujoco: --sensor-fault-joint goes with --sensor-fault nan|missing", file=sys.stderr)
         return 2
 
     from cyclonedds.domain import DomainParticipant
@@ -501,7 +511,7 @@ def main(argv=None) -> int:
     c = {"commands_received": 0, "commands_dropped": 0, "commands_discarded": 0, "commands_invalid": 0,
          "trajectories_received": 0, "forward_commands_received": 0, "trajectories_invalid": 0,
          "forward_commands_invalid": 0, "resets_invalid": 0, "commands_during_hold": 0,
-         "joint_states_published": 0, "late_iterations": 0, "dropped_sim_time_s": 0.0}
+         "joint_states_published": 0, "joint_states_faulted": 0, "late_iterations": 0, "dropped_sim_time_s": 0.0}
     invalid_reasons: Dict[str, int] = {}
     last_command: List[float] = sim.reference.tolist()
     last_reset_mono = -math.inf
@@ -523,6 +533,7 @@ def main(argv=None) -> int:
     sim_t0 = t0  # wall instant of simulated time 0 (moves when time is dropped)
     next_iter = t0
     js = rt.JointState(header=rt.Header(stamp=rt.now_stamp(), frame_id=""), name=list(sim.pub_names))
+    sensor_fault_started = None
     try:
         while not stop["flag"]:
             now = time.monotonic()
@@ -614,10 +625,27 @@ def main(argv=None) -> int:
             t_pub = time.perf_counter()
             phase["physics"] += t_pub - t_ph
             phase["physics_steps"] += todo
-            js.position, js.velocity, js.effort = sim.joint_state_arrays()
+            faulty = args.sensor_fault is not None and elapsed >= args.sensor_fault_after_s and (
+                args.sensor_fault_s is None or elapsed < args.sensor_fault_after_s + args.sensor_fault_s)
+            if faulty and sensor_fault_started is None:
+                sensor_fault_started = elapsed
+            if not faulty or args.sensor_fault != "frozen":
+                js.position, js.velocity, js.effort = sim.joint_state_arrays()
             js.header.stamp = rt.now_stamp()
-            js_w.write(js)
-            c["joint_states_published"] += 1
+            if faulty and args.sensor_fault in ("nan", "missing"):
+                k = sim.pub_names.index(args.sensor_fault_joint or sim.joints[0])
+                bad = rt.JointState(header=js.header, name=list(js.name), position=list(js.position),
+                                    velocity=list(js.velocity), effort=list(js.effort))
+                if args.sensor_fault == "nan":
+                    bad.position[k] = math.nan
+                else:
+                    for f in ("name", "position", "velocity", "effort"):
+                        del getattr(bad, f)[k]
+                js_w.write(bad)
+            elif not (faulty and args.sensor_fault == "silent"):
+                js_w.write(js)
+            c["joint_states_published"] += int(not (faulty and args.sensor_fault == "silent"))
+            c["joint_states_faulted"] += int(faulty)
             phase["publish"] += time.perf_counter() - t_pub
             work_ms.append((time.monotonic() - it_start) * 1e3)
     finally:
@@ -640,7 +668,8 @@ def main(argv=None) -> int:
             "last_command": [float(x) for x in last_command],
             "fault_started_s": rep["fault_started_s"],
             "fault_trigger_joint": None,
-            "joint_states_faulted": 0,
+            "joint_states_faulted": c["joint_states_faulted"],
+            "sensor_fault_started_wall_s": sensor_fault_started,
             "tracking_error": rep["tracking_error"],
             "max_abs_velocity_by_joint": rep["max_abs_velocity"],
             "fault_started_wall_s": rep["fault_started_wall_s"],

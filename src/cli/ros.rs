@@ -189,6 +189,10 @@ fn physics_robot(
     summary: Option<&Path>,
 ) -> anyhow::Result<ExitCode> {
     use std::os::unix::process::CommandExt;
+    anyhow::ensure!(
+        hw.fault_near_limit.is_none(),
+        "[mock_hw] fault_near_limit: the physics robot starts its faults by time only"
+    );
     let base = cfg.resolve(Path::new("."));
     let urdf = cfg.resolve(&cfg.robot.urdf);
     let args = hw
@@ -200,6 +204,10 @@ fn physics_robot(
             initial_q: q0,
             rate_hz: hw.rate_hz.min(100.0),
             summary,
+            fault: hw.fault,
+            fault_joint: hw.fault_joint.as_deref(),
+            fault_after_s: hw.fault_after_s,
+            fault_duration_s: hw.fault_duration_s,
         })
         .map_err(anyhow::Error::msg)
         .context("[mock_hw.mujoco]")?;

@@ -163,6 +163,11 @@ impl MockHwConfig {
                 self.drop_probability
             ));
         }
+        if self.plant == physics::Plant::Mujoco && self.fault_near_limit.is_some() {
+            return Err(
+                "fault_near_limit: the physics robot starts its faults by time only".into(),
+            );
+        }
         self.mujoco.validate().map_err(|m| format!("mujoco: {m}"))
     }
 }

@@ -110,6 +110,14 @@ pub struct PhysicsRun<'a> {
     pub rate_hz: f64,
     /// Where to write the JSON summary on exit.
     pub summary: Option<&'a Path>,
+    /// `[mock_hw] fault`: the published joint states fail while the robot keeps moving.
+    pub fault: Option<super::FaultKind>,
+    /// `[mock_hw] fault_joint` (NaN or missing); `None`: the first controlled joint.
+    pub fault_joint: Option<&'a str>,
+    /// `[mock_hw] fault_after_s` (s after start).
+    pub fault_after_s: f64,
+    /// `[mock_hw] fault_duration_s`; `None`: to the end.
+    pub fault_duration_s: Option<f64>,
 }
 
 impl MujocoConfig {
@@ -200,6 +208,28 @@ impl MujocoConfig {
         if let Some(s) = run.summary {
             a.extend(["--summary".into(), s.display().to_string()]);
         }
+        if let Some(kind) = run.fault {
+            use super::FaultKind;
+            let k = match kind {
+                FaultKind::Frozen => "frozen",
+                FaultKind::Silent => "silent",
+                FaultKind::NanPosition => "nan",
+                FaultKind::MissingJoint => "missing",
+            };
+            a.extend(["--sensor-fault".into(), k.into()]);
+            a.extend([
+                "--sensor-fault-after-s".into(),
+                format!("{:?}", run.fault_after_s),
+            ]);
+            if let Some(d) = run.fault_duration_s {
+                a.extend(["--sensor-fault-s".into(), format!("{d:?}")]);
+            }
+            if let (Some(j), FaultKind::NanPosition | FaultKind::MissingJoint) =
+                (run.fault_joint, kind)
+            {
+                a.extend(["--sensor-fault-joint".into(), j.into()]);
+            }
+        }
         Ok(a)
     }
 }
@@ -227,6 +257,10 @@ mod tests {
                 initial_q: &[-0.5, 1.0],
                 rate_hz: 100.0,
                 summary: Some(Path::new("/s.json")),
+                fault: Some(super::super::FaultKind::NanPosition),
+                fault_joint: Some("b"),
+                fault_after_s: 2.0,
+                fault_duration_s: Some(0.5),
             })
             .unwrap();
         let s = a.join(" ");
@@ -240,6 +274,7 @@ mod tests {
             "--gravity-compensation",
             "--freeze-joint left_arm_1 --freeze-after-s 2.5",
             "--summary /s.json",
+            "--sensor-fault nan --sensor-fault-after-s 2.0 --sensor-fault-s 0.5 --sensor-fault-joint b",
         ] {
             assert!(s.contains(want), "`{want}` missing from {s}");
         }
@@ -257,6 +292,10 @@ mod tests {
                 initial_q: &[0.0, 0.0],
                 rate_hz: 100.0,
                 summary: None,
+                fault: None,
+                fault_joint: None,
+                fault_after_s: 0.0,
+                fault_duration_s: None,
             })
             .unwrap_err()
             .contains("model_dir"));

@@ -58,10 +58,10 @@ struct Run {
     output: String,
 }
 
-/// `crossym demo --plant mujoco` on `config` with one condition, the first `seconds` of the
-/// letter.
-fn demo(config: &Path, out: &Path, condition: &str, seconds: &str) -> Run {
-    let o = crossym([
+/// `crossym demo --plant mujoco` on `config` with `conditions`, the first `seconds` of the
+/// letter each.
+fn demo(config: &Path, out: &Path, conditions: &[&str], seconds: &str) -> Run {
+    let mut cmd = crossym([
         "demo",
         "--no-isolation",
         "--plant",
@@ -70,20 +70,19 @@ fn demo(config: &Path, out: &Path, condition: &str, seconds: &str) -> Run {
         config.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-        "--condition",
-        condition,
         "--duration-s",
         seconds,
-    ])
-    .output()
-    .expect("crossym demo starts");
+    ]);
+    for c in conditions {
+        cmd.arg("--condition").arg(c);
+    }
+    let o = cmd.output().expect("crossym demo starts");
     let output = format!(
         "{}\n{}",
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
-    let csv = std::fs::read_to_string(out.join("demo.csv"))
-        .unwrap_or_else(|e| panic!("no demo.csv ({e}):\n{output}"));
+    let csv = std::fs::read_to_string(out.join("demo.csv")).unwrap_or_default();
     let rmse = csv
         .lines()
         .skip(1)
@@ -127,7 +126,7 @@ fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
     require_physics();
     let dir = temp_dir("physics-letter");
     let cfg = letters_config(&dir, &[]);
-    let r = demo(&cfg, &dir.join("new"), "0.5235987755982988:1:1", "6");
+    let r = demo(&cfg, &dir.join("new"), &["0.5235987755982988:1:1"], "6");
     assert_eq!(r.rmse.len(), 1, "{}", r.output);
     assert!(
         r.rmse[0] <= 0.033,
@@ -159,7 +158,7 @@ fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
             "tracking_tolerance = 0.002, tracking_window_s = 0.0",
         )],
     );
-    let b = demo(&old, &dir.join("old"), "0.5235987755982988:1:1", "6");
+    let b = demo(&old, &dir.join("old"), &["0.5235987755982988:1:1"], "6");
     assert!(!b.ok, "the old rule passed:\n{}", b.output);
     assert!(
         restarts(&b.node_log) > 3 || b.node_log.contains("does not follow"),
@@ -183,7 +182,7 @@ fn physics_rby1_that_stops_following_is_held_and_reported() {
             "version = \"1.0\"\nfreeze_joint = \"left_arm_0\"\nfreeze_after_s = 3.0",
         )],
     );
-    let r = demo(&cfg, &dir.join("run"), "0:1:1", "10");
+    let r = demo(&cfg, &dir.join("run"), &["0:1:1"], "10");
     assert!(!r.ok, "the demo passed with a frozen joint:\n{}", r.output);
     assert!(
         r.output.contains("node status codes") && r.output.contains("23"),
@@ -210,4 +209,56 @@ fn physics_rby1_that_stops_following_is_held_and_reported() {
         r.node_log
     );
     assert_eq!(r.summary["violation_count"], 0, "{}", r.summary);
+}
+
+/// Input faults while the physics robot draws, one run per kind (its published joint states
+/// fail; its motors keep following the last commands): a NaN position, a missing joint,
+/// silence (stale states). Across a condition switch, the node commands nothing non-finite,
+/// the robot crosses no URDF limit (position or velocity, checked by the robot on every
+/// physics step), and the node says what happened.
+#[test]
+#[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
+fn physics_rby1_survives_input_faults_while_it_moves() {
+    require_physics();
+    for (kind, log_needle) in [
+        ("nan_position", "non-finite position"),
+        ("missing_joint", "a controlled joint is missing"),
+        ("silent", "joint states stale"),
+    ] {
+        let dir = temp_dir(&format!("physics-fault-{kind}"));
+        let fault = format!(
+            "[mock_hw]\nrate_hz = 200.0\nfault = \"{kind}\"\nfault_joint = \"left_arm_3\"\n\
+             fault_after_s = 4.0\nfault_duration_s = 0.6"
+        );
+        let cfg = letters_config(&dir, &[("[mock_hw]\nrate_hz = 200.0", &fault)]);
+        let r = demo(
+            &cfg,
+            &dir.join("run"),
+            &["0.5235987755982988:1:1", "0:0.8:-1"],
+            "4",
+        );
+        let (summary, log, output) = (&r.summary, &r.node_log, &r.output);
+        assert!(
+            summary.is_object(),
+            "{kind}: no physics robot summary\n{output}"
+        );
+        assert!(
+            summary["joint_states_faulted"].as_u64().unwrap() > 0,
+            "{kind}: the fault never began: {summary}\n{output}"
+        );
+        assert_eq!(summary["violation_count"], 0, "{kind}: {summary}");
+        assert_eq!(summary["commands_invalid"], 0, "{kind}: {summary}");
+        assert!(
+            summary["commands_received"].as_u64().unwrap() > 300,
+            "{kind}"
+        );
+        assert!(
+            log.contains(log_needle),
+            "{kind}: `{log_needle}` not logged:\n{log}"
+        );
+        assert!(
+            !output.contains("node exited with"),
+            "{kind}: the node failed:\n{output}"
+        );
+    }
 }

@@ -967,6 +967,15 @@ struct LagServo {
 }
 
 impl LagServo {
+    /// At rest at `q`, every joint free.
+    fn at(q: &[f64]) -> Self {
+        Self {
+            q: q.to_vec(),
+            target: q.to_vec(),
+            frozen: vec![false; q.len()],
+        }
+    }
+
     fn advance(&mut self, dt: f64) {
         for _ in 0..(dt / 1e-3).round() as usize {
             for j in 0..self.q.len() {
@@ -1026,11 +1035,7 @@ const LAG_SETTINGS: SafetySettings = SafetySettings {
 fn a_lagging_servo_is_followed_and_the_former_rule_is_not() {
     let mut core = lag_node(LAG_SETTINGS);
     let mut cmd = core.command();
-    let mut servo = LagServo {
-        q: Q0.to_vec(),
-        target: Q0.to_vec(),
-        frozen: vec![false; 8],
-    };
+    let mut servo = LagServo::at(&Q0);
     let codes = run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 150);
     assert!(
         codes
@@ -1048,11 +1053,7 @@ fn a_lagging_servo_is_followed_and_the_former_rule_is_not() {
         ..LAG_SETTINGS
     };
     let mut core = lag_node(former);
-    let mut servo = LagServo {
-        q: Q0.to_vec(),
-        target: Q0.to_vec(),
-        frozen: vec![false; 8],
-    };
+    let mut servo = LagServo::at(&Q0);
     let codes = run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 150);
     assert!(codes.contains(&StatusCode::RobotNotFollowing), "{codes:?}");
     assert!(core.status().restarts > 2);
@@ -1065,11 +1066,7 @@ fn a_lagging_servo_is_followed_and_the_former_rule_is_not() {
 fn a_reset_inside_the_envelope_restarts_from_the_measured_state() {
     let mut core = lag_node(LAG_SETTINGS);
     let mut cmd = core.command();
-    let mut servo = LagServo {
-        q: Q0.to_vec(),
-        target: Q0.to_vec(),
-        frozen: vec![false; 8],
-    };
+    let mut servo = LagServo::at(&Q0);
     run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 70);
     let earlier = servo.q.clone();
     run_lagging(&mut core, &mut servo, &mut cmd, 0.7, 30);
@@ -1095,11 +1092,7 @@ fn a_reset_inside_the_envelope_restarts_from_the_measured_state() {
 fn a_servo_that_stops_following_is_held_until_a_new_condition() {
     let mut core = lag_node(LAG_SETTINGS);
     let mut cmd = core.command();
-    let mut servo = LagServo {
-        q: Q0.to_vec(),
-        target: Q0.to_vec(),
-        frozen: vec![false; 8],
-    };
+    let mut servo = LagServo::at(&Q0);
     run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 50);
     servo.frozen[0] = true;
     // 5 s: the first restart once the frozen joint leaves the 0.6 s window, then
