@@ -705,8 +705,10 @@ def check_config() -> int:
     robot, node = dict(d.get("robot", {})), dict(d.get("node", {}))
     r.check(robot.get("urdf") == "/urdf/model.urdf",
             f"[robot] urdf is {robot.get('urdf')}, want /urdf/model.urdf (the compose mount)")
-    r.check(node.get("output") == "position",
-            f"[node] output is {node.get('output')}, want position (RB-Y1 takes positions)")
+    r.check(node.get("output") == "trajectory"
+            and node.get("topics", {}).get("command") == "/both_arms_controller/joint_trajectory",
+            f"[node] output is {node.get('output')} on {node.get('topics', {}).get('command')}, want "
+            "trajectory on /both_arms_controller/joint_trajectory (the vendor's JointTrajectoryController)")
     pol = str(node.get("policy", ""))
     r.check(pol.startswith("/policies/") or pol.startswith("/opt/crossym/"),
             f"[node] policy {pol} is neither under the /policies mount nor in the image")

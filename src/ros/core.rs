@@ -15,6 +15,18 @@
 //! `W = JᵀJ + εI` from the task Jacobian at `q`, then the command: `v`, or `q + v·Δt`
 //! clamped inside the position limits. Commands are always finite and inside the limits.
 //! The tick allocates, locks and logs nothing (buffers are sized at construction).
+//!
+//! Position and trajectory modes continue the last commanded position while the robot
+//! follows: the measured `q` must lie within `safety.tracking_tolerance` of the hull of the
+//! commands issued since `safety.tracking_window_s` before its measurement (a servo whose
+//! step response does not overshoot stays inside the hull of its recent commands, so lag
+//! and sag pass), and — with a window — must not have moved faster than those commands did
+//! (a jump: a reset, another controller). Otherwise the commands restart from the measured
+//! state at rest (`RESTARTED_FROM_MEASURED`); more than `safety.max_restarts` restarts within
+//! `safety.restart_window_s` mean the robot does not follow: the node brakes to a hold
+//! (`ROBOT_NOT_FOLLOWING`) until a new condition is accepted. A distance to the command in
+//! effect at the measurement above `safety.tracking_warning` for longer than the window is
+//! reported as `TRACKING_ERROR`.
 
 use std::path::PathBuf;
 
