@@ -77,7 +77,7 @@ import os
 import signal
 import sys
 import time
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import mujoco
@@ -132,7 +132,8 @@ class Rby1Sim:
                  urdf_joints: Dict[str, UrdfJoint], *, hw_velocity: float = 4.712, hw_acceleration: float = 1.0,
                  hw_min_time: float = 0.01, target_filter_hz: float = 15.0, controller_rate_hz: float = 100.0,
                  open_loop_control: bool = False, allow_partial_joints_goal: bool = True,
-                 velocity_state: bool = False, interpolation: str = "splines", clock_origin_ns: int = 0):
+                 velocity_state: bool = False, interpolation: str = "splines", clock_origin_ns: int = 0,
+                 position_limits: Optional[Sequence[Tuple[float, float]]] = None):
         self.m = model
         self.d = mujoco.MjData(model)
         m, d = self.m, self.d
@@ -186,6 +187,12 @@ class Rby1Sim:
         inf = math.inf
         self.lower = np.array([urdf_joints[nm].lower if nm in urdf_joints else -inf for nm in self.joints])
         self.upper = np.array([urdf_joints[nm].upper if nm in urdf_joints else inf for nm in self.joints])
+        if position_limits is not None:
+            # the node's limits (its config may narrow a joint): checked where tighter
+            if len(position_limits) != n:
+                raise ValueError(f"--position-limits has {len(position_limits)} pairs, {n} controlled joints")
+            self.lower = np.maximum(self.lower, [lo for lo, _ in position_limits])
+            self.upper = np.minimum(self.upper, [hi for _, hi in position_limits])
         self.vlim = np.array([urdf_joints[nm].velocity if nm in urdf_joints else inf for nm in self.joints])
         self.lo_tol = self.lower - POS_TOL
         self.hi_tol = self.upper + POS_TOL
@@ -408,13 +415,19 @@ def build_sim(args, clock_origin_ns: int = 0):
     urdf_joints = read_urdf(urdf) if urdf else {}
     joints = [s for s in args.joints.split(",") if s] if args.joints else list(DEFAULT_JOINTS)
     q0 = parse_floats(args.initial_q) if args.initial_q else None
+    limits = None
+    if args.position_limits:
+        limits = []
+        for pair in args.position_limits.split(","):
+            lo, hi = pair.split(":")
+            limits.append((float(lo), float(hi)))
     hw_a = 0.0 if args.no_hw_limits else args.hw_acceleration
     sim = Rby1Sim(model, joints, q0, urdf_joints, hw_velocity=args.hw_velocity, hw_acceleration=hw_a,
                   hw_min_time=args.hw_min_time, target_filter_hz=args.target_filter_hz,
                   controller_rate_hz=args.controller_rate_hz, open_loop_control=args.open_loop_control,
                   allow_partial_joints_goal=not args.no_partial_joints_goal,
                   velocity_state=args.jtc_velocity_state, interpolation=args.interpolation,
-                  clock_origin_ns=clock_origin_ns)
+                  clock_origin_ns=clock_origin_ns, position_limits=limits)
     return sim, info, urdf
 
 
@@ -429,6 +442,8 @@ def make_parser() -> argparse.ArgumentParser:
     ap.add_argument("--joints", help="controlled joints in command order, comma-separated "
                     "(default: left_arm_0..6,right_arm_0..6)")
     ap.add_argument("--initial-q", help="initial positions of the controlled joints (rad), comma-separated (default 0)")
+    ap.add_argument("--position-limits", help="lower:upper per controlled joint (rad), comma-separated: checked "
+                    "where tighter than the URDF's (the node's [robot] limits)")
     ap.add_argument("--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0") or 0))
     ap.add_argument("--rate-hz", type=float, default=100.0, help="joint_states rate and loop rate (Hz)")
     ap.add_argument("--controller-rate-hz", type=float, default=100.0, help="JTC update rate (Hz, vendor: 100)")

@@ -58,6 +58,11 @@ pub struct LimitOverride {
     pub velocity: Option<f64>,
     /// Acceleration limit (rad/s² or m/s²); supplies one where the URDF has none.
     pub acceleration: Option<f64>,
+    /// Lower position limit (rad or m), inside the URDF's range: narrows the range the
+    /// safety filter keeps the joint in (e.g. a workcell); per joint only (not in `hardware_limits`).
+    pub lower: Option<f64>,
+    /// Upper position limit (rad or m), inside the URDF's range.
+    pub upper: Option<f64>,
 }
 
 /// `[robot]`: which URDF, which chains, which joints are held fixed.
@@ -124,6 +129,12 @@ impl RobotConfig {
             }
         }
         if let Some(hw) = &self.hardware_limits {
+            if hw.lower.is_some() || hw.upper.is_some() {
+                return Err(KinematicsError::InvalidSetting {
+                    field: "robot.hardware_limits".into(),
+                    message: "position limits are per joint: give them in [robot.limits]".into(),
+                });
+            }
             let movable: Vec<(String, f64, Option<f64>)> = model
                 .joints
                 .iter()
@@ -149,6 +160,9 @@ impl RobotConfig {
             }
             if let Some(v) = o.velocity {
                 model.set_velocity_limit(joint, v)?;
+            }
+            if o.lower.is_some() || o.upper.is_some() {
+                model.narrow_position_limits(joint, o.lower, o.upper)?;
             }
         }
         let held: HashMap<String, f64> = self.held.iter().map(|(k, v)| (k.clone(), *v)).collect();

@@ -149,7 +149,8 @@ pub fn mock_hw(
         .or_else(|| cfg.start_q())
         .unwrap_or_else(|| vec![0.0; kin.dof()]);
     if plant.unwrap_or(hw_cfg.plant) == crossym::sim::physics::Plant::Mujoco {
-        return physics_robot(&cfg, &hw_cfg, kin.joint_names(), &q0, summary);
+        let limits: Vec<(f64, f64)> = kin.limits().iter().map(|l| (l.lower, l.upper)).collect();
+        return physics_robot(&cfg, &hw_cfg, kin.joint_names(), &q0, &limits, summary);
     }
     let mode = match command {
         Some(c) => parse_output(c).map_err(anyhow::Error::msg)?,
@@ -186,6 +187,7 @@ fn physics_robot(
     hw: &MockHwConfig,
     joints: &[String],
     q0: &[f64],
+    position_limits: &[(f64, f64)],
     summary: Option<&Path>,
 ) -> anyhow::Result<ExitCode> {
     use std::os::unix::process::CommandExt;
@@ -202,6 +204,7 @@ fn physics_robot(
             urdf: &urdf,
             joints,
             initial_q: q0,
+            position_limits,
             rate_hz: hw.rate_hz.min(100.0),
             summary,
             fault: hw.fault,

@@ -371,6 +371,41 @@ impl RobotModel {
         Ok(())
     }
 
+    /// Narrows the position range of a joint to `[lower, upper]` (rad or m; `None` keeps
+    /// that side): a workcell that forbids part of a joint's range. Refuses to widen the
+    /// URDF's range, an empty range, and non-finite values.
+    pub fn narrow_position_limits(
+        &mut self,
+        joint: &str,
+        lower: Option<f64>,
+        upper: Option<f64>,
+    ) -> Result<(), KinematicsError> {
+        let id = self.joint_id(joint)?;
+        let l = self.joints[id].limits;
+        let (lo, hi) = (lower.unwrap_or(l.lower), upper.unwrap_or(l.upper));
+        let bad = |message: String| KinematicsError::InvalidSetting {
+            field: format!("limits.{joint}"),
+            message,
+        };
+        for (side, v) in [("lower", lower), ("upper", upper)] {
+            if v.is_some_and(|v| !v.is_finite()) {
+                return Err(bad(format!("{side} = {v:?} is not finite")));
+            }
+        }
+        if lo < l.lower || hi > l.upper {
+            return Err(bad(format!(
+                "[{lo}, {hi}] widens the URDF's range [{}, {}]; limits may only narrow it",
+                l.lower, l.upper
+            )));
+        }
+        if lo >= hi {
+            return Err(bad(format!("lower {lo} is not below upper {hi}")));
+        }
+        self.joints[id].limits.lower = lo;
+        self.joints[id].limits.upper = hi;
+        Ok(())
+    }
+
     /// Joints on the path from `base` to `tip`, in order from base to tip.
     pub fn path(&self, base: usize, tip: usize) -> Option<Vec<usize>> {
         let mut out = Vec::new();

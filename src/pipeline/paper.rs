@@ -257,19 +257,66 @@ fn resampled_error<P: crate::eval::ConditionedPolicy>(
     };
     let t = &a.traj;
     let executed = crate::eval::rollout_path(policy, kin, t, &a.condition);
+    resampled_path_error(
+        project,
+        points,
+        &executed,
+        &t.x,
+        t.m,
+        cfg.eval.divergence_threshold,
+    )
+}
+
+/// `RMSE_τ` of an executed task path against its nominal (both row-major, `m` task
+/// coordinates per sample), projected and resampled to `points`.
+fn resampled_path_error(
+    project: &Projection,
+    points: usize,
+    executed: &[f64],
+    nominal: &[f64],
+    m: usize,
+    threshold: f64,
+) -> TrajectoryError {
     let reduce = |path: &[f64]| {
         let mut out = Vec::new();
-        for x in path.chunks(t.m) {
+        for x in path.chunks(m.max(1)) {
             project(x, &mut out);
         }
         out
     };
-    let (exe, nom) = (reduce(&executed), reduce(&t.x));
-    let c = exe.len() / t.len().max(1);
+    let (exe, nom) = (reduce(executed), reduce(nominal));
+    let len = nominal.len() / m.max(1);
+    let c = nom.len() / len.max(1);
     resampled_rmse(
         &resample(&exe, c, points),
         &resample(&nom, c, points),
         c,
-        cfg.eval.divergence_threshold,
+        threshold,
     )
+}
+
+/// The config's `[eval] paper_protocol` applied to an executed path (a closed loop's
+/// measured task path, row-major `m` per sample) against its nominal: `Some(RMSE_τ)` when
+/// the protocol is the resampled (real-robot) one, `None` for the pooled one, which scores
+/// rollouts from their own start rather than recorded paths.
+pub fn paper_path_error(
+    cfg: &Config,
+    kin: &Kinematics,
+    executed: &[f64],
+    nominal: &[f64],
+    m: usize,
+) -> Option<TrajectoryError> {
+    let protocol = cfg.eval.paper_protocol;
+    let PaperProtocol::Resampled { points, .. } = protocol else {
+        return None;
+    };
+    let project = projection(cfg, kin, protocol);
+    Some(resampled_path_error(
+        &project,
+        points,
+        executed,
+        nominal,
+        m,
+        cfg.eval.divergence_threshold,
+    ))
 }

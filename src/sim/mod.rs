@@ -25,6 +25,8 @@ pub mod stress;
 
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
 
 use crate::kinematics::{JointLimits, RobotModel};
@@ -221,6 +223,64 @@ pub struct MockHwSummary {
     /// Joint states published while the fault was active (count).
     #[serde(default)]
     pub joint_states_faulted: u64,
+    /// Physics robot only (`--plant mujoco`): its own tracking error per joint, the
+    /// controller's reference − measured (rad); empty for the kinematic mock.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub tracking_error: BTreeMap<String, TrackingPercentiles>,
+    /// Physics robot only: time each actuator spent at its force limit (s).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub torque_limit_time_s: BTreeMap<String, f64>,
+    /// Physics robot only: smallest distance of each joint to a URDF position limit (rad).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub min_limit_margin: BTreeMap<String, f64>,
+}
+
+/// Median, 99th percentile and maximum of a joint's tracking error (rad).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrackingPercentiles {
+    /// Median (rad).
+    pub p50: f64,
+    /// 99th percentile (rad).
+    pub p99: f64,
+    /// Maximum (rad).
+    pub max: f64,
+}
+
+impl MockHwSummary {
+    /// One line on the physics robot's tracking, torque-limit time and limit margins (worst
+    /// joint of each); `None` for the kinematic mock.
+    pub fn plant_line(&self) -> Option<String> {
+        if self.tracking_error.is_empty() {
+            return None;
+        }
+        let worst = |f: fn(&TrackingPercentiles) -> f64| {
+            self.tracking_error
+                .iter()
+                .map(|(j, p)| (f(p), j.as_str()))
+                .fold((0.0, ""), |a, b| if b.0 > a.0 { b } else { a })
+        };
+        let (p50, j50) = worst(|p| p.p50);
+        let (p99, j99) = worst(|p| p.p99);
+        let (max, jmax) = worst(|p| p.max);
+        let (torque, jt) = self
+            .torque_limit_time_s
+            .iter()
+            .map(|(j, t)| (*t, j.as_str()))
+            .fold((0.0, "-"), |a, b| if b.0 > a.0 { b } else { a });
+        let (margin, jm) = self
+            .min_limit_margin
+            .iter()
+            .map(|(j, m)| (*m, j.as_str()))
+            .fold((f64::INFINITY, "-"), |a, b| if b.0 < a.0 { b } else { a });
+        Some(format!(
+            "Physics robot: tracking error (reference − measured, worst joint) p50 {:.1} mrad ({j50}), \
+             p99 {:.1} mrad ({j99}), max {:.1} mrad ({jmax}); longest time at a torque limit {torque:.2} s \
+             ({jt}); smallest distance to a URDF limit {margin:.3} rad ({jm}).",
+            p50 * 1e3,
+            p99 * 1e3,
+            max * 1e3
+        ))
+    }
 }
 
 /// The simulated robot (no DDS). Positions of all movable URDF joints; the controlled ones

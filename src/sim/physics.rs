@@ -106,6 +106,10 @@ pub struct PhysicsRun<'a> {
     pub joints: &'a [String],
     /// Their start positions (rad).
     pub initial_q: &'a [f64],
+    /// Their position limits as the node knows them (`[robot] limits` applied, rad): the
+    /// robot checks these where they are tighter than its URDF's (a user who narrows a
+    /// joint's range expects the node to keep within it).
+    pub position_limits: &'a [(f64, f64)],
     /// joint_states rate (Hz).
     pub rate_hz: f64,
     /// Where to write the JSON summary on exit.
@@ -178,6 +182,14 @@ impl MujocoConfig {
             "--joints".into(),
             run.joints.join(","),
             format!("--initial-q={}", list(run.initial_q)),
+            format!(
+                "--position-limits={}",
+                run.position_limits
+                    .iter()
+                    .map(|(lo, hi)| format!("{lo:?}:{hi:?}"))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            ),
             "--rate-hz".into(),
             format!("{:?}", run.rate_hz),
             "--hw-velocity".into(),
@@ -255,6 +267,7 @@ mod tests {
                 urdf: Path::new("/u.urdf"),
                 joints: &joints,
                 initial_q: &[-0.5, 1.0],
+                position_limits: &[(-1.0, 1.0), (-0.25, 2.0)],
                 rate_hz: 100.0,
                 summary: Some(Path::new("/s.json")),
                 fault: Some(super::super::FaultKind::NanPosition),
@@ -269,6 +282,7 @@ mod tests {
             "--version 1.0",
             "--joints a,b",
             "--initial-q=-0.5,1.0",
+            "--position-limits=-1.0:1.0,-0.25:2.0",
             "--hw-acceleration 1.0",
             "--target-filter-hz 15.0",
             "--gravity-compensation",
@@ -290,6 +304,7 @@ mod tests {
                 urdf: Path::new("/u"),
                 joints: &joints,
                 initial_q: &[0.0, 0.0],
+                position_limits: &[],
                 rate_hz: 100.0,
                 summary: None,
                 fault: None,

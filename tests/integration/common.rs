@@ -27,10 +27,10 @@ pub fn rby1_urdf() -> Option<PathBuf> {
     if p.exists() {
         Some(p)
     } else {
-        eprintln!(
-            "SKIP: {} is absent (RB-Y1 tests need ../shared)",
+        crate::skip::skip(format!(
+            "{} is absent (RB-Y1 tests need ../shared)",
             p.display()
-        );
+        ));
         None
     }
 }
@@ -55,10 +55,10 @@ pub fn example_robots() -> Option<PathBuf> {
     if dir.is_dir() {
         Some(dir)
     } else {
-        eprintln!(
-            "SKIP: {} is absent (run `bash tests/robots/install.sh` for PyPI example-robot-data)",
+        crate::skip::skip(format!(
+            "{} is absent (run `bash tests/robots/install.sh` for PyPI example-robot-data)",
             dir.display()
-        );
+        ));
         None
     }
 }
@@ -353,4 +353,20 @@ impl Watch {
             std::thread::sleep(std::time::Duration::from_millis(5));
         }
     }
+}
+
+/// Waits until the file at `p` contains `needle` after the first `after`; false after
+/// `deadline`.
+pub fn wait_for_text_after(p: &Path, after: &str, needle: &str, deadline: Duration) -> bool {
+    let t0 = Instant::now();
+    while t0.elapsed() < deadline {
+        let text = std::fs::read_to_string(p).unwrap_or_default();
+        if let Some(i) = text.find(after) {
+            if text[i..].contains(needle) {
+                return true;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    false
 }

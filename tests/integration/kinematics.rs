@@ -318,6 +318,53 @@ fn config_overrides_supply_acceleration_limits() {
     );
 }
 
+/// `[robot.limits] j = { lower, upper }` narrows a joint's range (a workcell); widening the
+/// URDF's range, an empty range and a position range in `hardware_limits` are refused.
+#[test]
+fn config_overrides_narrow_position_ranges_and_refuse_widening() {
+    let load = |extra: &str| {
+        let text = format!(
+            "[robot]\nurdf = \"{}\"\n{extra}\n[[robot.chains]]\nname = \"arm\"\nbase = \"base_link\"\ntip = \"tool0\"\n",
+            common::path("urdf/test_arm_7dof.urdf").display()
+        );
+        crossym::config::Config::from_toml_str(&text, std::path::Path::new("inline.toml"))
+            .unwrap()
+            .load_robot()
+    };
+    let urdf = load("").unwrap().kinematics.limits()[1];
+    let (lo, hi) = (urdf.lower + 0.25, urdf.upper - 0.5);
+    let narrowed = load(&format!(
+        "limits = {{ j2 = {{ lower = {lo}, upper = {hi} }} }}"
+    ))
+    .unwrap()
+    .kinematics
+    .limits()[1];
+    assert_eq!((narrowed.lower, narrowed.upper), (lo, hi));
+    assert_eq!(narrowed.velocity, urdf.velocity, "velocity untouched");
+    let upper_only = load(&format!("limits = {{ j2 = {{ upper = {hi} }} }}"))
+        .unwrap()
+        .kinematics
+        .limits()[1];
+    assert_eq!((upper_only.lower, upper_only.upper), (urdf.lower, hi));
+    for (extra, needle) in [
+        (
+            format!("limits = {{ j2 = {{ upper = {} }} }}", urdf.upper + 0.1),
+            "widens",
+        ),
+        (
+            format!("limits = {{ j2 = {{ lower = {hi}, upper = {lo} }} }}"),
+            "not below",
+        ),
+        ("hardware_limits = { upper = 0.5 }".to_string(), "per joint"),
+    ] {
+        let Err(e) = load(&extra) else {
+            panic!("{extra}: accepted");
+        };
+        let e = e.to_string();
+        assert!(e.contains(needle), "{extra}: {e}");
+    }
+}
+
 #[test]
 fn held_joints_are_frozen_into_the_chain() {
     let (model, _) = test_arm();
@@ -512,7 +559,7 @@ fn fk_matches_the_k_crate() {
                 );
             }
         }
-        None => eprintln!("SKIP RB-Y1 part: vendor URDF absent"),
+        None => crate::skip::skip("RB-Y1 part: vendor URDF absent"),
     }
 }
 
@@ -551,6 +598,6 @@ fn jacobian_derivative_matches_finite_differences() {
     check(&common::planar().kinematics, 3);
     match common::rby1() {
         Some(r) => check(&r.kinematics, 4),
-        None => eprintln!("SKIP RB-Y1 part: vendor URDF absent"),
+        None => crate::skip::skip("RB-Y1 part: vendor URDF absent"),
     }
 }

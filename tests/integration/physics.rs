@@ -8,12 +8,18 @@
 //! in their own step, one at a time (`--ignored --test-threads=1`), not beside the suite.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use super::common::{crossym, root, shared, temp_dir};
 
 /// The RB-Y1 letters config with absolute paths and `edit` applied (text replacements).
 fn letters_config(dir: &Path, edit: &[(&str, &str)]) -> PathBuf {
-    let mut text = std::fs::read_to_string(root().join("config/rby1-letters.toml")).unwrap();
+    rby1_config("rby1-letters.toml", dir, edit)
+}
+
+/// A shipped RB-Y1 config (`config/<name>`) with absolute paths and `edit` applied.
+fn rby1_config(name: &str, dir: &Path, edit: &[(&str, &str)]) -> PathBuf {
+    let mut text = std::fs::read_to_string(root().join("config").join(name)).unwrap();
     let shared = shared()
         .canonicalize()
         .expect("../shared beside the repository");
@@ -24,7 +30,7 @@ fn letters_config(dir: &Path, edit: &[(&str, &str)]) -> PathBuf {
         assert!(text.contains(from), "config has no `{from}`");
         text = text.replace(from, to);
     }
-    let p = dir.join("rby1-letters.toml");
+    let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p
 }
@@ -61,11 +67,16 @@ struct Run {
 /// `crossym demo --plant mujoco` on `config` with `conditions`, the first `seconds` of the
 /// letter each.
 fn demo(config: &Path, out: &Path, conditions: &[&str], seconds: &str) -> Run {
+    demo_on("mujoco", config, out, conditions, seconds)
+}
+
+/// `crossym demo --plant <plant>` (`mujoco` or `kinematic`).
+fn demo_on(plant: &str, config: &Path, out: &Path, conditions: &[&str], seconds: &str) -> Run {
     let mut cmd = crossym([
         "demo",
         "--no-isolation",
         "--plant",
-        "mujoco",
+        plant,
         "--config",
         config.to_str().unwrap(),
         "--out",
@@ -82,12 +93,7 @@ fn demo(config: &Path, out: &Path, conditions: &[&str], seconds: &str) -> Run {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
-    let csv = std::fs::read_to_string(out.join("demo.csv")).unwrap_or_default();
-    let rmse = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(5).unwrap().parse::<f64>().unwrap())
-        .collect();
+    let rmse = csv_column(out, 5).unwrap_or_default();
     let node_log = std::fs::read_to_string(out.join("node.log")).unwrap_or_default();
     let summary = serde_json::from_str(
         &std::fs::read_to_string(out.join("mock_hw_summary.json")).unwrap_or_default(),
@@ -100,6 +106,23 @@ fn demo(config: &Path, out: &Path, conditions: &[&str], seconds: &str) -> Run {
         ok: o.status.success(),
         output,
     }
+}
+
+/// A run the node followed through: at most one restart (the demo's teleport to the
+/// start), the robot never reported as not following, no limit crossed.
+fn assert_followed(r: &Run) {
+    let n = restarts(&r.node_log);
+    assert!(
+        n <= 1,
+        "{n} restarts (the teleport makes one)\n{}",
+        r.node_log
+    );
+    assert!(
+        !r.node_log.contains("does not follow"),
+        "robot reported as not following:\n{}",
+        r.node_log
+    );
+    assert_eq!(r.summary["violation_count"], 0, "{}", r.summary);
 }
 
 /// The largest "(N in all" count of the node's restart log lines (0 when none).
@@ -134,18 +157,7 @@ fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
         r.rmse[0],
         r.output
     );
-    let n = restarts(&r.node_log);
-    assert!(
-        n <= 1,
-        "{n} restarts (the teleport makes one)\n{}",
-        r.node_log
-    );
-    assert!(
-        !r.node_log.contains("does not follow"),
-        "robot reported as not following:\n{}",
-        r.node_log
-    );
-    assert_eq!(r.summary["violation_count"], 0, "{}", r.summary);
+    assert_followed(&r);
     assert!(r.summary["commands_received"].as_u64().unwrap() > 300);
     assert_eq!(r.summary["commands_invalid"], 0, "{}", r.summary);
 
@@ -260,5 +272,189 @@ fn physics_rby1_survives_input_faults_while_it_moves() {
             !output.contains("node exited with"),
             "{kind}: the node failed:\n{output}"
         );
+    }
+}
+
+/// The pan grasped on the physics robot (no gravity compensation) and on the kinematic mock,
+/// same condition (45°, the demonstrated right arm): the physics robot within 1.5× (+ 3 mm)
+/// of the kinematic mock, at or below the paper's real-robot 0.017 m under the paper's
+/// resampled protocol (measured 0.014 m; the one pan cell this pins), one restart (the
+/// demo's teleport to the start), no robot reported as not following, no actuator held at
+/// its torque limit for long (< 0.3 s; target steps are bounded), no limit crossed.
+#[test]
+#[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
+fn physics_rby1_grasps_the_pan_as_the_kinematic_mock_does() {
+    require_physics();
+    let dir = temp_dir("physics-pan");
+    let cfg = rby1_config("rby1-pan.toml", &dir, &[]);
+    let cond = ["0.7853981633974483:1:1"];
+    let r = demo(&cfg, &dir.join("physics"), &cond, "10");
+    assert_eq!(r.rmse.len(), 1, "{}", r.output);
+    let kin = demo_on("kinematic", &cfg, &dir.join("kinematic"), &cond, "10").rmse;
+    assert_eq!(kin.len(), 1);
+    assert!(
+        r.rmse[0] <= 1.5 * kin[0] + 0.003,
+        "physics RMSE {} m vs kinematic {} m\n{}",
+        r.rmse[0],
+        kin[0],
+        r.output
+    );
+    let paper = paper_column(&dir.join("physics"));
+    assert!(
+        paper[0] <= 0.017,
+        "paper-protocol RMSE {} m on the physics robot (paper's real robot: 0.017 m)\n{}",
+        paper[0],
+        r.output
+    );
+    assert_followed(&r);
+    assert_eq!(r.summary["commands_invalid"], 0, "{}", r.summary);
+    let torque = r.summary["torque_limit_time_s"]
+        .as_object()
+        .unwrap_or_else(|| panic!("no torque_limit_time_s: {}", r.summary));
+    let worst = torque
+        .values()
+        .filter_map(|v| v.as_f64())
+        .fold(0.0, f64::max);
+    assert!(
+        worst < 0.3,
+        "an actuator spent {worst} s at its torque limit: {}",
+        r.summary["torque_limit_time_s"]
+    );
+}
+
+/// The paper-protocol RMSE column of a demo's `demo.csv`.
+fn paper_column(out: &Path) -> Vec<f64> {
+    csv_column(out, 8).expect("demo.csv with a paper-protocol column")
+}
+
+/// Column `k` of `out/demo.csv` as numbers (`None` without the file).
+fn csv_column(out: &Path, k: usize) -> Option<Vec<f64>> {
+    let csv = std::fs::read_to_string(out.join("demo.csv")).ok()?;
+    Some(
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(k).unwrap().parse::<f64>().unwrap())
+            .collect(),
+    )
+}
+
+/// A joint range narrowed in the config (`[robot] limits`, as for a workcell) that the
+/// letter pushes against (the original letter takes `left_arm_1` from 0.649 to 0.757 rad;
+/// the range ends at 0.70), with a sensor fault while the arm heads for the bound (a NaN
+/// position of that joint, silence, or frozen encoders) and the letter going on after it:
+/// the physics robot, checking the same narrowed range on every physics step, sees the joint
+/// come within 0.03 rad of the bound and never cross it. The node and the physics robot
+/// run as a user starts them (`crossym mock-hw --plant mujoco`, `crossym node`, the config's
+/// default condition).
+#[test]
+#[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
+fn physics_rby1_keeps_a_narrowed_range_under_faults() {
+    require_physics();
+    // The original letter's start posture (demo 6 at the identity condition).
+    let start = "[-0.3550, 0.6492, -0.3583, -1.9584, -0.0029, 0.1475, 0.0, \
+                 -0.2670, -0.6156, 0.4593, -1.8497, -0.0041, 0.1863, 0.0]";
+    // (fault, what the node logs when it sees it, and when it sees valid states again);
+    // frozen encoders (fresh stamps, stuck values) look like a robot that lags: nothing to
+    // wait for but the fault window itself.
+    for (kind, seen) in [
+        ("nan_position", Some(("non-finite position", "fresh again"))),
+        ("silent", Some(("joint states stale", "fresh again"))),
+        ("frozen", None),
+    ] {
+        let dir = temp_dir(&format!("physics-bound-{kind}"));
+        let hw = format!(
+            "[mock_hw]\nrate_hz = 200.0\ninitial_q = {start}\nfault = \"{kind}\"\n\
+             fault_joint = \"left_arm_1\"\nfault_after_s = 1.5\nfault_duration_s = 0.8"
+        );
+        let cfg = letters_config(
+            &dir,
+            &[
+                (
+                    "urdf_name = \"RBY1_A_v1.0\"",
+                    "urdf_name = \"RBY1_A_v1.0\"\nlimits = { left_arm_1 = { upper = 0.70 } }",
+                ),
+                ("[mock_hw]\nrate_hz = 200.0", &hw),
+            ],
+        );
+        let cfg = cfg.to_str().unwrap();
+        let summary_path = dir.join("summary.json");
+        let (hw_log, node_log) = (dir.join("hw.log"), dir.join("node.log"));
+        let spawn = |args: &[&str], log: &Path| {
+            let f = std::fs::File::create(log).unwrap();
+            crossym(args)
+                .env("ROS_DOMAIN_ID", "0")
+                .env("ROS_LOCALHOST_ONLY", "1")
+                .stdout(f.try_clone().unwrap())
+                .stderr(f)
+                .spawn()
+                .expect("crossym starts")
+        };
+        let mut robot = spawn(
+            &[
+                "mock-hw",
+                "--plant",
+                "mujoco",
+                "--config",
+                cfg,
+                "--summary",
+                summary_path.to_str().unwrap(),
+            ],
+            &hw_log,
+        );
+        let mut node = spawn(&["node", "--config", cfg], &node_log);
+        // Events, with generous deadlines: the node commands, sees the fault, sees valid
+        // joint states again; then 3 s more of the letter (the bound is reached ≈ 2 s after
+        // the fault window).
+        let deadline = Duration::from_secs(30);
+        let wait = super::common::wait_for_text;
+        let waited = wait(&node_log, "joint states received", deadline)
+            && match seen {
+                Some((fault, again)) => {
+                    wait(&node_log, fault, deadline)
+                        && super::common::wait_for_text_after(&node_log, fault, again, deadline)
+                }
+                None => {
+                    std::thread::sleep(Duration::from_secs_f64(1.5 + 0.8));
+                    true
+                }
+            };
+        if waited {
+            std::thread::sleep(Duration::from_secs(3));
+        }
+        let term = |c: &mut std::process::Child| {
+            // SAFETY: signals a child process of this test.
+            unsafe { libc::kill(c.id() as i32, libc::SIGTERM) };
+            c.wait().unwrap()
+        };
+        let node_rc = term(&mut node);
+        term(&mut robot);
+        let log = std::fs::read_to_string(&node_log).unwrap_or_default();
+        assert!(
+            waited,
+            "{kind}: the node never saw the fault and recovered:\n{log}\n--- robot\n{}",
+            std::fs::read_to_string(&hw_log).unwrap_or_default()
+        );
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&summary_path).unwrap_or_default())
+                .unwrap_or_else(|e| panic!("{kind}: no summary ({e})"));
+        assert!(
+            summary["joint_states_faulted"].as_u64().unwrap() > 0,
+            "{kind}: the fault never began: {summary}"
+        );
+        let margin = summary["min_limit_margin"]["left_arm_1"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{kind}: no margin of left_arm_1: {summary}"));
+        assert!(
+            margin < 0.03,
+            "{kind}: left_arm_1 never came near its narrowed bound (margin {margin} rad): the \
+             test does not test the bound\n{log}"
+        );
+        assert_eq!(
+            summary["violation_count"], 0,
+            "{kind}: limit violations, the first {}; margins {}\n{log}",
+            summary["violations"][0], summary["min_limit_margin"]
+        );
+        assert_eq!(summary["commands_invalid"], 0, "{kind}: {summary}");
+        assert!(node_rc.success(), "{kind}: node exit {node_rc}\n{log}");
     }
 }
