@@ -47,6 +47,17 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// `cargo test` runs this bench once as a smoke test (no `--bench` argument, criterion's
+/// test mode): the hand-timed passes then run 1/100 of their samples, enough to exercise
+/// them, not to measure (`cargo bench` runs them whole).
+fn samples(n: usize) -> usize {
+    if std::env::args().any(|a| a == "--bench") {
+        n
+    } else {
+        (n / 100).max(10)
+    }
+}
+
 /// The policy of a tick variant.
 #[derive(Clone, Copy, PartialEq)]
 enum Kind {
@@ -193,7 +204,7 @@ fn bench_tick(c: &mut Criterion) {
         let label = format!("{robot}_{}dof{suffix}", core.joint_names().len());
         g.bench_function(&label, |b| b.iter(|| step(&mut core)));
         // Percentiles of single ticks.
-        let mut t: Vec<f64> = (0..20_000)
+        let mut t: Vec<f64> = (0..samples(20_000))
             .map(|_| {
                 let t0 = Instant::now();
                 let f = step(&mut core);
@@ -297,8 +308,9 @@ fn bench_latency(_c: &mut Criterion) {
         .enable_time()
         .build()
         .unwrap();
-    let mut lat = Vec::with_capacity(2000);
-    for k in 0..2000 {
+    let trips = samples(2000);
+    let mut lat = Vec::with_capacity(trips);
+    for k in 0..trips {
         while let Ok(Some(_)) = cmd_sub.take() {}
         let t0 = Instant::now();
         send(k);
@@ -325,7 +337,7 @@ fn bench_latency(_c: &mut Criterion) {
         lat[lat.len() * 99 / 100],
         lat[lat.len() - 1],
         lat.len(),
-        2000 - lat.len()
+        trips - lat.len()
     );
 }
 
@@ -353,7 +365,7 @@ fn bench_floor(_c: &mut Criterion) {
                 println!("floor: {what} REFUSED ({reason})");
             }
         }
-        for (period_ns, n) in [(1_000_000i64, 20_000usize), (10_000_000, 3_000)] {
+        for (period_ns, n) in [(1_000_000i64, samples(20_000)), (10_000_000, samples(3_000))] {
             let mut late = Vec::with_capacity(n);
             let mut t = libc::timespec {
                 tv_sec: 0,

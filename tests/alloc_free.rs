@@ -11,6 +11,9 @@
 //! around the measured calls only. The first allocation of a measured section records a
 //! backtrace, printed in the failure message.
 
+#[path = "support/skip.rs"]
+mod skip;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::backtrace::Backtrace;
 use std::cell::{Cell, RefCell};
@@ -390,7 +393,7 @@ fn three_joint_arm_is_allocation_free() {
 #[test]
 fn planar_dual_arm_is_allocation_free() {
     if !Path::new(PLANAR_URDF).exists() {
-        eprintln!("SKIP: {PLANAR_URDF} is absent");
+        skip::skip(format!("{PLANAR_URDF} is absent"));
         return;
     }
     let model = RobotModel::from_urdf_file(PLANAR_URDF).expect("planar loads");
@@ -404,7 +407,7 @@ fn planar_dual_arm_is_allocation_free() {
 #[test]
 fn rby1_is_allocation_free() {
     if !Path::new(RBY1_URDF).exists() {
-        eprintln!("SKIP: {RBY1_URDF} is absent (RB-Y1 needs ../shared)");
+        skip::skip(format!("{RBY1_URDF} is absent (RB-Y1 needs ../shared)"));
         return;
     }
     let model = RobotModel::from_urdf_file(RBY1_URDF).expect("RB-Y1 loads");
@@ -552,7 +555,7 @@ fn control_tick_is_allocation_free() {
         let rby1 = Config::from_file(root.join("config/rby1-letters.toml")).unwrap();
         audit_tick("rby1", &rby1, 6);
     } else {
-        eprintln!("SKIP rby1 tick: ../shared/robots/rby1a/model.urdf absent");
+        skip::skip("rby1 tick: ../shared/robots/rby1a/model.urdf absent");
     }
 }
 
@@ -636,7 +639,7 @@ fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
     if root.join("../shared/robots/rby1a/model.urdf").exists() {
         configs.push(("rby1", "config/rby1-letters.toml"));
     } else {
-        eprintln!("SKIP rby1 canonicalised: ../shared/robots/rby1a/model.urdf absent");
+        skip::skip("rby1 canonicalised: ../shared/robots/rby1a/model.urdf absent");
     }
     for (robot, file) in configs {
         let cfg = Config::from_file(root.join(file)).unwrap();
@@ -709,7 +712,7 @@ fn task_head_and_its_node_tick_are_allocation_free() {
     if root.join("../shared/robots/rby1a/model.urdf").exists() {
         configs.push(("rby1", "config/rby1-letters.toml"));
     } else {
-        eprintln!("SKIP rby1 task head: ../shared/robots/rby1a/model.urdf absent");
+        skip::skip("rby1 task head: ../shared/robots/rby1a/model.urdf absent");
     }
     for (robot, file) in configs {
         let cfg = Config::from_file(root.join(file)).unwrap();

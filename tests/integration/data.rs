@@ -160,10 +160,10 @@ fn shipped_mat_has_the_lasa_layout() {
 fn shared_lasa_files_load() {
     let dir = shared().join("data/lasa");
     if !dir.exists() {
-        eprintln!(
-            "SKIP: {} is absent (shared LASA files need ../shared)",
+        crate::skip::skip(format!(
+            "{} is absent (shared LASA files need ../shared)",
             dir.display()
-        );
+        ));
         return;
     }
     for letter in LETTERS {

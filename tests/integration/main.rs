@@ -24,5 +24,7 @@ mod recordings;
 mod ros;
 mod safety;
 mod sim;
+#[path = "../support/skip.rs"]
+mod skip;
 mod task_induced;
 mod teach;

@@ -7,8 +7,10 @@ with crossym (the ROS message types come from `dds_peer.py`, written by hand):
 - publishes sensor_msgs/JointState on `rt/joint_states` at 100 Hz (reliable, wall-clock
   stamps) with every movable joint of the URDF it is given;
 - integrates the std_msgs/Float64MultiArray velocity commands it receives on
-  `rt/forward_velocity_controller/commands` (reliable) with the measured loop period,
-  holding the last command (as ros2_control's ForwardCommandController does);
+  `rt/forward_velocity_controller/commands` (reliable) over one 10 ms period of its own
+  simulated clock per loop tick, holding the last command (as ros2_control's
+  ForwardCommandController does); a late tick (the loop stalled) is counted in
+  `late_ticks`, never integrated as a longer step;
 - publishes crossym_msgs/SymmetryCondition on `rt/crossym/symmetry_condition`
   (reliable), switching every `--switch-s` seconds among conditions the shipped planar
   policy was trained on (any θ, λ ∈ [0.5, 1], σ = ±1);
@@ -247,10 +249,13 @@ def main(argv=None):
             if dt > 2.0 * PERIOD:
                 rep["late_ticks"] += 1
 
-            # 1. Motion over the last interval under the held command (the robot keeps
-            #    moving whatever its sensors report).
+            # 1. Motion over one period of the robot's own (simulated) clock under the held
+            #    command (the robot keeps moving whatever its sensors report). Simulated
+            #    time: a stalled Python loop (late_ticks) slows this robot down instead of
+            #    stepping it past the node's latency envelope; the test treats many late
+            #    ticks as a failed precondition.
             for k in range(n):
-                robot.q[k] += dt * robot.cmd[k]
+                robot.q[k] += PERIOD * robot.cmd[k]
 
             # 2. Limits, from the robot's own positions.
             for k in range(n):
