@@ -182,7 +182,7 @@ fn joint_state(inp: &mut Input, names: &[String], limits: &[JointLimits], now: f
         ..Default::default()
     };
     let mode = inp.u8();
-    if mode % 4 != 0 {
+    if !mode.is_multiple_of(4) {
         // Every controlled joint once (rotated), perhaps with extra unknown joints.
         let n = names.len();
         let rot = usize::from(inp.u8()) % n;
@@ -223,7 +223,7 @@ fn joint_state(inp: &mut Input, names: &[String], limits: &[JointLimits], now: f
 fn condition(inp: &mut Input, now: f64) -> SymmetryCondition {
     let stamp = Time::from_secs_f64(now);
     let kind = inp.u8();
-    let (theta, scale, reflection) = if kind % 2 == 0 {
+    let (theta, scale, reflection) = if kind.is_multiple_of(2) {
         // Plausible: θ ∈ ±32 rad, λ ∈ [0, 1.3], σ = ±1.
         let theta = f64::from(inp.u16() as i16) * 1e-3;
         let scale = f64::from(inp.u8()) / 200.0;

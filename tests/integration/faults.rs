@@ -375,24 +375,28 @@ fn mock_hw_fault(kind: &str, domain: u16) -> (MockHwSummary, i32) {
         domain,
         &node_log,
     );
-    // Wait for the fault to begin (mock-hw logs it), then for its 2 s window and 2.5 s of
-    // valid joint states after it.
-    let t0 = Instant::now();
-    while t0.elapsed() < Duration::from_secs(30) {
-        if std::fs::read_to_string(&hw_log)
-            .unwrap_or_default()
-            .contains("mock_hw: fault ")
-        {
-            std::thread::sleep(Duration::from_millis(4500));
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(50));
+    // Events, with generous deadlines: the fault begins (mock-hw logs it), the node sees its
+    // joint states go stale and, once the 2 s window is over, fresh again; then 2.5 s of
+    // valid joint states are wanted after it (4 s waited: a loaded machine's mock may lag
+    // the wall clock).
+    let deadline = Duration::from_secs(30);
+    let began = common::wait_for_text(&hw_log, "mock_hw: fault ", deadline);
+    let recovered = began
+        && common::wait_for_text_after(&node_log, "joint states stale", "fresh again", deadline);
+    if recovered {
+        std::thread::sleep(Duration::from_secs(4));
     }
     assert_eq!(node.term(), 0, "node exit code\n{}", log_tail(&node_log));
     std::thread::sleep(Duration::from_millis(300));
     let rc = hw.term();
     let s: MockHwSummary = serde_json::from_str(&std::fs::read_to_string(&summary).unwrap())
         .unwrap_or_else(|e| panic!("{e}\n{}", log_tail(&hw_log)));
+    assert!(
+        recovered,
+        "{kind}: the fault never began or the node never saw valid joint states after it\n{}\n--- node\n{}",
+        log_tail(&hw_log),
+        log_tail(&node_log)
+    );
     eprintln!("mock-hw {kind}: {}", log_tail(&hw_log));
     (s, rc)
 }

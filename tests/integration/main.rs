@@ -18,6 +18,7 @@ mod lift_compose;
 mod morpho_robots;
 mod operator;
 mod physics;
+mod pins;
 mod policy;
 mod rby1_tasks;
 mod recordings;

@@ -270,6 +270,11 @@ fn demos_cli_reports_every_source_and_refuses_the_bad_one() {
             && text.contains("position of `right_joint2` is NaN"),
         "{text}"
     );
+    // The dropout bag is refused by name, with where and how long the gap is.
+    assert!(
+        text.contains("REFUSED: source `pick_4`: ") && text.contains("a gap of 0.3"),
+        "{text}"
+    );
     assert!(
         text.contains("ignored joints: gripper_left_finger"),
         "{text}"
@@ -298,7 +303,29 @@ fn demos_cli_reports_every_source_and_refuses_the_bad_one() {
         ),
     )
     .unwrap();
-    common::run_ok(common::crossym(["demos", "--config"]).arg(&cfg));
+    let ok = common::run_ok(common::crossym(["demos", "--config"]).arg(&cfg));
+    assert!(!ok.contains("OUTSIDE"), "{ok}");
+    // A narrower range for left_joint1 than the wave (0.785 ± 0.3 rad) keeps to: the samples
+    // beyond it are flagged in the report.
+    let narrowed = robot.replacen(
+        "[robot]\n",
+        "[robot]\nlimits = { left_joint1 = { upper = 0.9 } }\n",
+        1,
+    );
+    assert_ne!(narrowed, robot);
+    std::fs::write(
+        &cfg,
+        format!(
+            "{narrowed}\n[demonstrations]\ndt = 0.01\ntrain = [\"pick_1\"]\ntest = [\"pick_2\"]\n{}",
+            sources(&["pick_1", "pick_2"])
+        ),
+    )
+    .unwrap();
+    let flagged = common::run_ok(common::crossym(["demos", "--config"]).arg(&cfg));
+    assert!(
+        flagged.contains("samples OUTSIDE the joint limits"),
+        "{flagged}"
+    );
     std::fs::write(
         &cfg,
         format!(
