@@ -164,7 +164,11 @@ impl NodeLog {
     /// Logs an event of `kind`: the first immediately, then at most once per interval with
     /// the number suppressed since the last line of that kind.
     pub fn limited(&mut self, kind: &'static str, severity: Severity, text: &str) {
-        let now = Instant::now();
+        self.limited_at(kind, severity, text, Instant::now());
+    }
+
+    /// [`NodeLog::limited`] at a given instant (the rate limit's clock; tests drive it).
+    pub fn limited_at(&mut self, kind: &'static str, severity: Severity, text: &str, now: Instant) {
         let i = match self.limits.iter().position(|l| l.kind == kind) {
             Some(i) => i,
             None => {
@@ -371,24 +375,29 @@ mod tests {
 
     #[test]
     fn first_of_a_kind_at_once_then_counted() {
+        // The rate limit's clock is driven here: no dependence on how fast the loop runs.
         let (mut log, lines) = capture(Severity::Info, Duration::from_millis(200));
-        for _ in 0..50 {
-            log.limited("a", Severity::Warn, "bad a");
+        let t0 = Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        for k in 0..50 {
+            log.limited_at("a", Severity::Warn, "bad a", at(k * 3));
         }
-        log.limited("b", Severity::Warn, "bad b");
+        log.limited_at("b", Severity::Warn, "bad b", at(150));
         log.log(Severity::Debug, "hidden");
         let l = lines.lock().unwrap().clone();
         assert_eq!(l.len(), 2, "{l:?}");
-        std::thread::sleep(Duration::from_millis(250));
-        log.limited("a", Severity::Warn, "bad a");
+        // 199 ms after the first "a": still inside the interval, counted.
+        log.limited_at("a", Severity::Warn, "bad a", at(199));
+        assert_eq!(lines.lock().unwrap().len(), 2);
+        log.limited_at("a", Severity::Warn, "bad a", at(250));
         let l = lines.lock().unwrap().clone();
         assert_eq!(l.len(), 3);
         assert!(
-            l[2].ends_with("bad a (49 more since the last report)"),
+            l[2].ends_with("bad a (50 more since the last report)"),
             "{}",
             l[2]
         );
-        log.limited("a", Severity::Warn, "bad a");
+        log.limited_at("a", Severity::Warn, "bad a", at(260));
         log.flush_suppressed();
         let l = lines.lock().unwrap().clone();
         assert!(
