@@ -125,22 +125,37 @@ fn node_talks_on_the_terminal_and_status_shows_it() {
     )
     .unwrap();
     let names = common::planar().kinematics.joint_names().to_vec();
-    std::thread::sleep(Duration::from_millis(500)); // discovery
-    for _ in 0..60 {
-        let n = names.len() - 1;
-        js.publish(msg::JointState {
-            header: msg::Header {
-                stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
-                frame_id: String::new(),
-            },
-            name: names[..n].to_vec(),
-            position: vec![0.0; n],
-            velocity: vec![],
-            effort: vec![],
-        })
-        .unwrap();
-        std::thread::sleep(Duration::from_millis(5));
+    // Batches of 60 until the node has logged a rejection (discovery takes its time; a
+    // batch sent before it is lost), deadline 30 s.
+    let t0 = std::time::Instant::now();
+    let mut seen = false;
+    while !seen && t0.elapsed() < Duration::from_secs(30) {
+        for _ in 0..60 {
+            let n = names.len() - 1;
+            js.publish(msg::JointState {
+                header: msg::Header {
+                    stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
+                    frame_id: String::new(),
+                },
+                name: names[..n].to_vec(),
+                position: vec![0.0; n],
+                velocity: vec![],
+                effort: vec![],
+            })
+            .unwrap();
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        seen = common::wait_for_text(
+            &node_log,
+            "rejected joint_states",
+            Duration::from_millis(200),
+        );
     }
+    assert!(
+        seen,
+        "the node never logged a rejected joint state\n{}",
+        common::log_tail(&node_log)
+    );
     let condition = |theta: f64| msg::SymmetryCondition {
         header: msg::Header {
             stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
