@@ -47,44 +47,12 @@ from cyclonedds.util import duration
 # --------------------------------------------------------------------------------------
 
 
-@dataclass
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: types.int32 = 0
-    nanosec: types.uint32 = 0
-
-
-@dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time = field(default_factory=Time)
-    frame_id: str = ""
-
-
-@dataclass
-class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
-    header: Header = field(default_factory=Header)
-    name: types.sequence[str] = field(default_factory=list)
-    position: types.sequence[types.float64] = field(default_factory=list)
-    velocity: types.sequence[types.float64] = field(default_factory=list)
-    effort: types.sequence[types.float64] = field(default_factory=list)
-
-
-@dataclass
-class MultiArrayDimension(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayDimension_"):
-    label: str = ""
-    size: types.uint32 = 0
-    stride: types.uint32 = 0
-
-
-@dataclass
-class MultiArrayLayout(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayLayout_"):
-    dim: types.sequence[MultiArrayDimension] = field(default_factory=list)
-    data_offset: types.uint32 = 0
-
-
-@dataclass
-class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiArray_"):
-    layout: MultiArrayLayout = field(default_factory=MultiArrayLayout)
-    data: types.sequence[types.float64] = field(default_factory=list)
+# The standard ROS 2 types (builtin_interfaces, std_msgs, sensor_msgs) are the physics
+# robot's (`physics/ros_types.py`, also written by hand for Cyclone DDS, no crossym code);
+# the crossym_msgs types below are this peer's own.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "physics"))
+from ros_types import (Float64MultiArray, Header, JointState, MultiArrayDimension,  # noqa: E402,F401
+                       MultiArrayLayout, Time)
 
 
 @dataclass
