@@ -37,7 +37,7 @@ use crossym::config::Config;
 use crossym::data::clean::{clean, differentiate, resample, CleanConfig, CleanDemo};
 use crossym::data::recording::{open_joint_states, JointRecording, StampSource};
 use crossym::kinematics::JointLimits;
-use crossym::ros::msg::{Header, JointState, Time};
+use crossym::msg::{Header, JointState, Time};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

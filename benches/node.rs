@@ -36,9 +36,10 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use crossym::config::Config;
+use crossym::control::{NodeConfig, NodeCore, StatusCode, Trigger};
+use crossym::msg;
 use crossym::policy::{Policy, TaskFeatures};
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
-use crossym::ros::{msg, NodeConfig, NodeCore, StatusCode, Trigger};
 use crossym::safety::{SafetySettings, SafetyStatus};
 use crossym::symmetry::compose::Condition;
 use crossym::symmetry::transfer::composed::LiftIntegrator;
@@ -245,7 +246,7 @@ fn bench_latency(_c: &mut Criterion) {
     node_cfg.check_stamps = false;
     node_cfg.name = "crossym_latency".into();
     let names = robot.kinematics.joint_names().to_vec();
-    let core = NodeCore::from_config(&cfg, node_cfg.clone()).unwrap();
+    let core = crossym::setup::node_core(&cfg, node_cfg.clone()).unwrap();
     let settings = DdsSettings {
         domain_id: 77,
         range: DiscoveryRange::Localhost,
@@ -344,7 +345,7 @@ fn bench_latency(_c: &mut Criterion) {
 /// The machine's wake-up floor (see the module doc): lateness of a real-time thread's
 /// timed wake-ups, at 1 kHz and 100 Hz.
 fn bench_floor(_c: &mut Criterion) {
-    use crossym::ros::realtime::{self, RealtimeConfig, RealtimeOutcome};
+    use crossym::control::realtime::{self, RealtimeConfig, RealtimeOutcome};
     if std::env::var("CROSSYM_TICK_ONLY").is_ok() {
         return;
     }

@@ -8,7 +8,7 @@ Called by docker/build.sh, one check per invocation:
                               --from stages exist, FROM args are declared
     checks.py stage DIR       copy what the `build` stage copies (after the dockerignore
                               filter) into DIR, with the Dockerfile's COPY semantics
-    checks.py embeds DIR      every include_str!/include_bytes! in DIR/src resolves inside DIR
+    checks.py embeds DIR      every include_str!/include_bytes! in DIR/src and DIR/crates/*/src resolves inside DIR
     checks.py compose         compose.yaml parses; services, mounts and defaults are consistent
     checks.py config          docker/config/rby1.toml agrees with config/rby1.toml
     checks.py config-for-host OUT   writes the example config with the host URDF path
@@ -529,11 +529,13 @@ def stage_build_context(out: Path) -> int:
 
 
 def check_embeds(root: Path) -> int:
-    """include_str!/include_bytes! paths of root/src resolve inside root (the staged crate)."""
+    """include_str!/include_bytes! paths of root/src and root/crates/*/src resolve inside
+    root (the staged workspace)."""
     r = Report("embeds")
     pat = re.compile(r'include_(?:str|bytes)!\(\s*"([^"]+)"\s*\)')
     n = 0
-    for f in sorted((root / "src").rglob("*.rs")):
+    files = list((root / "src").rglob("*.rs")) + list(root.glob("crates/*/src/**/*.rs"))
+    for f in sorted(files):
         for m in pat.finditer(f.read_text()):
             n += 1
             target = (f.parent / m.group(1)).resolve()

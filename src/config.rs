@@ -9,13 +9,13 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::control::NodeConfig;
 use crate::data::augmentation::AugmentationConfig;
 use crate::data::demonstrations::DemonstrationsConfig;
 use crate::data::letters::LetterTaskConfig;
 use crate::eval::EvalConfig;
 use crate::kinematics::{ChainSpec, Kinematics, KinematicsError, KinematicsSettings, RobotModel};
 use crate::policy::TrainConfig;
-use crate::ros::NodeConfig;
 use crate::symmetry::spec::{CheckConfig, CompositionConfig, SymmetryConfig};
 
 /// Errors while reading or validating a configuration file.
@@ -283,7 +283,7 @@ impl Config {
 
     /// `[node]` (defaults when absent) with its policy path resolved against the config
     /// file's directory; not yet validated (overrides may follow).
-    pub fn node_config(&self) -> crate::ros::NodeConfig {
+    pub fn node_config(&self) -> crate::control::NodeConfig {
         let mut n = self.node.clone().unwrap_or_default();
         if let Some(p) = &n.policy {
             n.policy = Some(self.resolve(p));

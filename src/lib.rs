@@ -5,32 +5,36 @@
 //! robot's configuration space `Q` and task space `X` are transferred across the
 //! forward kinematics `f: Q → X` (descended by equivariance, eq. 8; lifted by the
 //! horizontal lift, eqs. 13–18), composed by direct or semi-direct products
-//! (eqs. 19–23), and used to train symmetry-conditioned joint-space policies.
+//! (eqs. 19–23), and used to train symmetry-conditioned joint-space policies run by a
+//! ROS 2 node.
 //!
-//! Modules:
-//! - [`kinematics`]: URDF model, FK, Jacobian, metric pseudo-inverse.
-//! - [`config`]: TOML configuration, validated once at startup.
-//! - [`symmetry`]: groups, actions, transfer (descend/lift) and composition.
-//! - [`policy`]: the symmetry-conditioned policy `π(q, s) → q̇`: features, allocation-free
-//!   inference, CONDOR-style training (candle), safetensors + JSON persistence.
-//! - [`safety`]: the QP joint-limit safety filter (Clarabel).
-//! - [`ros`]: the ROS 2 node without DDS: message mirrors, `.msg` parser, control-tick core.
-//! - [`data`]: demonstrations from every source (LASA letters, reaches, rosbag2 recordings,
-//!   CSV) and the readers behind them.
-//! - [`pipeline`]: demonstrations → augmentation → training → evaluation, as library calls.
+//! This crate is the application floor of a workspace whose crates depend only downward
+//! (`docs/ARCHITECTURE.md`):
+//!
+//! | floor | crate | modules (re-exported here) |
+//! |---|---|---|
+//! | 5 app | `crossym` | [`config`], [`pipeline`], the CLI |
+//! | 4 ROS 2 | [`crossym_ros`] | [`ros`] (DDS node, log, replay), [`sim`] (mock hardware, physics robot, stress) |
+//! | 3 control | [`crossym_control`] | [`control`] (node core, real-time settings), [`safety`] |
+//! | 2 learning | [`crossym_learn`] | [`data`], [`policy`], [`eval`] |
+//! | 1 maths, formats | [`crossym_math`], [`crossym_io`] | [`kinematics`], [`symmetry`]; [`msg`], [`msgdef`], [`bag`] |
+//!
+//! Here only what needs a config file: [`config`] (TOML, validated once at startup),
+//! [`setup`] (the floors' objects built from a config) and [`pipeline`] (demonstrations →
+//! augmentation → training → evaluation, as library calls).
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
 #![allow(clippy::needless_range_loop)]
 
-pub mod bag;
+pub use crossym_control as control;
+pub use crossym_control::safety;
+pub use crossym_io::{bag, msg, msgdef};
+pub use crossym_learn::{data, eval, policy};
+pub use crossym_math::{kinematics, symmetry};
+pub use crossym_ros as ros;
+pub use crossym_ros::sim;
+
 pub mod config;
-pub mod data;
-pub mod eval;
-pub mod kinematics;
 pub mod pipeline;
-pub mod policy;
-pub mod ros;
-pub mod safety;
-pub mod sim;
-pub mod symmetry;
+pub mod setup;

@@ -566,7 +566,8 @@ fn control_tick_is_allocation_free() {
 #[test]
 fn node_core_tick_is_allocation_free() {
     use crossym::config::Config;
-    use crossym::ros::{msg, NodeConfig, NodeCore};
+    use crossym::control::{NodeConfig, NodeCore};
+    use crossym::msg;
     use crossym::safety::{SafetySettings, SafetyStatus};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let cfg = Config::from_file(root.join("config/letters.toml")).unwrap();
@@ -778,7 +779,8 @@ fn node_ticks_allocate_nothing(
     rng: &mut StdRng,
     scales: std::ops::Range<f64>,
 ) {
-    use crossym::ros::{msg, NodeConfig, NodeCore};
+    use crossym::control::{NodeConfig, NodeCore};
+    use crossym::msg;
     use crossym::safety::{SafetySettings, SafetyStatus};
     let limits = kin.limits().to_vec();
     let names = kin.joint_names().to_vec();

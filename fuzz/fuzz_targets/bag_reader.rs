@@ -1,15 +1,11 @@
 //! Arbitrary bytes as an MCAP bag: `Bag::from_bytes` must return Ok or a BagError, never
 //! panic; every message of a bag that opens is decoded as every node type (errors fine).
 #![no_main]
-#![allow(dead_code)]
 
 use libfuzzer_sys::fuzz_target;
 
-#[path = "shared.rs"]
-mod shared;
-use shared::ros;
-use shared::bag::reader::Bag;
-use ros::msg;
+use crossym_io::bag::Bag;
+use crossym_io::msg;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(bag) = Bag::from_bytes(data, std::path::Path::new("fuzz.mcap")) {

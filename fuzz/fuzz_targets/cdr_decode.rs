@@ -1,15 +1,11 @@
 //! Arbitrary bytes as CDR payloads of every node message type: decode must return Ok or
 //! an error, never panic or allocate without bound.
 #![no_main]
-#![allow(dead_code)]
 
 use libfuzzer_sys::fuzz_target;
 
-#[path = "shared.rs"]
-mod shared;
-use shared::ros;
-use shared::bag::cdr::decode;
-use ros::msg;
+use crossym_io::bag::cdr::decode;
+use crossym_io::msg;
 
 fuzz_target!(|data: &[u8]| {
     let _ = decode::<msg::JointState>(data);

@@ -16,7 +16,7 @@ use libfuzzer_sys::fuzz_target;
 use crossym::config::{Config, RobotConfig};
 use crossym::kinematics::{Kinematics, KinematicsError, KinematicsSettings, RobotModel};
 use crossym::policy::{Policy, TaskFeatures};
-use crossym::ros::NodeCore;
+use crossym::control::NodeCore;
 use crossym::safety::{SafetyFilter, SafetySettings};
 
 const PLANAR: &str = include_str!("../../urdf/planar_dual_arm.urdf");

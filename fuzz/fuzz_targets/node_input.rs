@@ -1,4 +1,4 @@
-//! Arbitrary bytes as a session of the node's logic (`crossym::ros::NodeCore`, no DDS):
+//! Arbitrary bytes as a session of the node's logic (`crossym::control::NodeCore`, no DDS):
 //! joint states and symmetry conditions with any field values — names (controlled,
 //! duplicated, unknown, renamed, empty), any lengths, any f64 (NaN, ±inf, 1e300, subnormal),
 //! any header stamp, any θ / λ / σ — received at any time, interleaved with control ticks at
@@ -23,8 +23,8 @@ use libfuzzer_sys::fuzz_target;
 use crossym::config::Config;
 use crossym::kinematics::{JointLimits, Kinematics};
 use crossym::policy::{MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
-use crossym::ros::msg::{Header, JointState, SymmetryCondition, Time};
-use crossym::ros::{Command, NodeConfig, NodeCore, OutputMode};
+use crossym::msg::{Header, JointState, SymmetryCondition, Time};
+use crossym::control::{Command, NodeConfig, NodeCore, OutputMode};
 
 struct Setup {
     kin: Kinematics,

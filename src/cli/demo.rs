@@ -7,9 +7,9 @@ use std::time::Duration;
 
 use anyhow::Context;
 use crossym::config::Config;
-use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::plot::{condition_label, write_paths_grid, PathFigure, PathPanel, XY_VIEW};
 use crossym::eval::{score, EvalConfig};
+use crossym::pipeline::nominal_trajectories;
 use crossym::ros::dds::{DdsSettings, DiscoveryRange};
 use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
 use crossym::sim::MockHwSummary;
@@ -542,7 +542,7 @@ fn replay_bag(
     config: &Path,
     overrides: &super::ros::NodeOverrides,
 ) -> anyhow::Result<(usize, f64)> {
-    use crossym::bag::replay::{replay, ReplayTopics};
+    use crossym::ros::replay::{replay, ReplayTopics};
     let bag = crossym::bag::Bag::open(dir)?;
     let (_, mut core) = super::ros::build_core(config, overrides)?;
     let topics = ReplayTopics::for_node(core.config());

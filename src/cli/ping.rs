@@ -19,9 +19,10 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use crossym::config::Config;
+use crossym::control::realtime::{self, RealtimeConfig};
+use crossym::control::{OutputMode, Trigger};
+use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings};
-use crossym::ros::realtime::{self, RealtimeConfig};
-use crossym::ros::{msg, OutputMode, Trigger};
 
 use super::ros::{node_config, NodeOverrides};
 

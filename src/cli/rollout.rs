@@ -9,9 +9,9 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use crossym::config::Config;
-use crossym::data::augmentation::nominal_trajectories;
 use crossym::eval::plot::{condition_label, write_paths_png, PathFigure, PathPanel, XY_VIEW};
 use crossym::eval::{nominal_at, rollout, samples_spanning, score_path_timed, RolloutStatus};
+use crossym::pipeline::nominal_trajectories;
 
 /// Options of `crossym rollout`.
 #[derive(Debug, clap::Args)]

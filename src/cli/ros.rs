@@ -6,9 +6,9 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use crossym::config::Config;
+use crossym::control::{NodeConfig, NodeCore, OutputMode, Trigger};
 use crossym::ros::dds::DdsSettings;
 use crossym::ros::log::Severity;
-use crossym::ros::{NodeConfig, NodeCore, OutputMode, Trigger};
 use crossym::sim::{MockHardware, MockHwConfig};
 
 /// Overrides of `[node]` from the command line.
@@ -107,7 +107,7 @@ pub fn node_config(cfg: &Config, o: &NodeOverrides) -> anyhow::Result<NodeConfig
 pub fn build_core(path: &Path, o: &NodeOverrides) -> anyhow::Result<(Config, NodeCore)> {
     let cfg = Config::from_file(path)?;
     let n = node_config(&cfg, o)?;
-    let core = NodeCore::from_config(&cfg, n)?;
+    let core = crossym::setup::node_core(&cfg, n)?;
     Ok((cfg, core))
 }
 
@@ -244,7 +244,7 @@ pub fn replay(
     o: &NodeOverrides,
     tolerance: f64,
 ) -> anyhow::Result<ExitCode> {
-    use crossym::bag::replay::{replay, ReplayTopics};
+    use crossym::ros::replay::{replay, ReplayTopics};
     let bag = crossym::bag::Bag::open(bag_path)?;
     let (_, mut core) = build_core(config, o)?;
     let topics = ReplayTopics::for_node(core.config());
@@ -282,8 +282,9 @@ pub fn replay_live(
     keep_stamps: bool,
     delay_s: f64,
 ) -> anyhow::Result<ExitCode> {
-    use crossym::bag::replay::ReplayTopics;
-    use crossym::ros::{dds, msg};
+    use crossym::msg;
+    use crossym::ros::dds;
+    use crossym::ros::replay::ReplayTopics;
     anyhow::ensure!(rate.is_finite() && rate > 0.0, "--rate must be positive");
     anyhow::ensure!(
         delay_s.is_finite() && delay_s >= 0.0,
@@ -368,8 +369,9 @@ pub fn record(
     duration_s: Option<f64>,
 ) -> anyhow::Result<ExitCode> {
     use crossym::bag::{BagWriter, Qos};
-    use crossym::ros::msg::{self, RosMessage};
-    use crossym::ros::{dds, OutputMode};
+    use crossym::control::OutputMode;
+    use crossym::msg::{self, RosMessage};
+    use crossym::ros::dds;
     use std::sync::atomic::{AtomicBool, Ordering};
     let mut list: Vec<(String, String)> = Vec::new();
     if let Some(c) = config {

@@ -7,8 +7,9 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use crossym::config::Config;
+use crossym::control::StatusCode;
+use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings};
-use crossym::ros::{msg, StatusCode};
 
 use super::ros::{node_config, NodeOverrides};
 

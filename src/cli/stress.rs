@@ -7,9 +7,9 @@ use std::time::Instant;
 
 use anyhow::Context;
 use crossym::config::Config;
-use crossym::ros::OutputMode;
+use crossym::control::OutputMode;
 use crossym::safety::FilterDefect;
-use crossym::sim::stress::{report_table, run_campaign, Geometry, StressSettings};
+use crossym::sim::stress::{report_table, run_campaign, StressSettings};
 
 /// Options of `crossym stress`.
 #[derive(Debug, clap::Args)]
@@ -53,10 +53,11 @@ pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
     let mut geometries = Vec::new();
     if a.config.is_empty() {
         let planar = Config::from_file("config/letters.toml")?;
-        geometries.push(Geometry::from_config(&planar, "planar").map_err(anyhow::Error::msg)?);
+        geometries
+            .push(crossym::setup::stress_geometry(&planar, "planar").map_err(anyhow::Error::msg)?);
         match Config::from_file("config/rby1-letters.toml")
             .map_err(|e| e.to_string())
-            .and_then(|c| Geometry::from_config(&c, "rby1"))
+            .and_then(|c| crossym::setup::stress_geometry(&c, "rby1"))
         {
             Ok(g) => geometries.push(g),
             Err(e) => eprintln!("stress: RB-Y1 geometry left out ({e})"),
@@ -68,7 +69,7 @@ pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
                 .file_stem()
                 .map_or("robot".into(), |s| s.to_string_lossy().into_owned());
             geometries.push(
-                Geometry::from_config(&cfg, &name)
+                crossym::setup::stress_geometry(&cfg, &name)
                     .map_err(anyhow::Error::msg)
                     .with_context(|| format!("{}", p.display()))?,
             );

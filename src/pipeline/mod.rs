@@ -327,6 +327,26 @@ pub fn load_any_policy(
     Ok(any)
 }
 
+/// The nominal trajectories of `demo` under each of `conditions` for the task of `cfg`
+/// (`[[symmetries]]`, `[composition]`), in the order given
+/// ([`crate::data::augmentation::nominal_trajectories`]).
+pub fn nominal_trajectories(
+    cfg: &Config,
+    kin: &Kinematics,
+    demo: &JointTrajectory,
+    conditions: &[Condition],
+) -> Result<Vec<crate::data::augmentation::Augmented>, String> {
+    let (built, _) =
+        crate::symmetry::check::build(kin, &cfg.symmetries).map_err(|e| e.to_string())?;
+    crate::data::augmentation::nominal_trajectories(
+        kin,
+        &built,
+        &cfg.composition.order,
+        demo,
+        conditions,
+    )
+}
+
 /// Demonstration number `which` (1-based) of `demos`, by default the first test one.
 pub fn pick_demo(
     demos: &Demonstrations,

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Regenerate the reference examples of what rosbags writes (the layout src/bag must match).
+"""Regenerate the reference examples of what rosbags writes (the layout crates/crossym-io/src/bag must match).
 
     python3 tests/bags/dump_examples.py [--msgs msgs/msg] [--out tests/bags]
 

@@ -2,7 +2,7 @@
 """Write a reference rosbag2 bag (MCAP storage) with rosbags' Writer.
 
 Independent of the Rust code: the bag is made by rosbags (CDR via its
-typestore), so the Rust reader in src/bag can be checked against it, and the
+typestore), so the Rust reader in crates/crossym-io/src/bag can be checked against it, and the
 bag's layout (example_schemas.txt, example_metadata.yaml) is what the Rust
 writer must match.
 

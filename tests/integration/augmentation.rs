@@ -3,11 +3,12 @@
 //! augmented joint-space trajectory draws the transformed letter, `f(q') = ρ_X R(θ) λ x`.
 
 use crossym::config::Config;
-use crossym::data::augmentation::{letter_augmenter, letter_group, GroupGrid, SubGroup};
+use crossym::data::augmentation::{letter_augmenter, GroupGrid, SubGroup};
 use crossym::data::letters::JointTrajectory;
 use crossym::symmetry::check::build;
 use crossym::symmetry::finite::SignedPermutation;
 use crossym::symmetry::lie::{AffineAction, LieGroupSpec};
+use crossym::symmetry::parts::composition_parts;
 use nalgebra::DVector;
 
 use crate::common;
@@ -123,7 +124,9 @@ fn augmented_trajectories_draw_the_transformed_letters() {
     // Keep the test fast: every 40th sample of demo 1.
     let demo = demo_1_at(&cfg, kin, |len| (0..len).step_by(40).collect());
     let (built, _) = build(kin, &cfg.symmetries).unwrap();
-    let (rho, _, _) = letter_group(&built, &cfg.composition.order).unwrap();
+    let rho = composition_parts(&built, &cfg.composition.order)
+        .unwrap()
+        .reflection;
     assert_eq!(rho, SignedPermutation::block_swap(&[-1.0; 4]));
     // The shipped augmenter (its flow tolerances are what the data are made with).
     let aug = letter_augmenter(kin, &built, &cfg.composition.order).unwrap();
@@ -226,7 +229,8 @@ fn an_orbit_that_fails_partway_keeps_what_it_reached() {
     // Three samples keep it fast.
     let demo = demo_1_at(&cfg, kin, |_| vec![0, 400, 800]);
     let (built, _) = build(kin, &cfg.symmetries).unwrap();
-    let (rho, rot, _) = letter_group(&built, &cfg.composition.order).unwrap();
+    let parts = composition_parts(&built, &cfg.composition.order).unwrap();
+    let (rho, rot) = (parts.reflection, parts.rotation);
     let grid = GroupGrid {
         rotation_step_deg: Some(30.0),
         scales: vec![1.0],

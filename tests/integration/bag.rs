@@ -5,11 +5,12 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use crossym::bag::replay::{replay, ReplayTopics};
 use crossym::bag::{Bag, BagError, BagWriter, Qos};
 use crossym::config::Config;
+use crossym::control::NodeCore;
+use crossym::msg;
 use crossym::policy::Policy;
-use crossym::ros::{msg, NodeCore};
+use crossym::ros::replay::{replay, ReplayTopics};
 
 use crate::common;
 
@@ -226,7 +227,7 @@ fn bag_tools_selftest_detects_a_corrupted_bag() {
 
 fn letters() -> (Config, NodeCore) {
     let cfg = Config::from_file(common::root().join("config/letters.toml")).unwrap();
-    let core = NodeCore::from_config(&cfg, cfg.node_config()).unwrap();
+    let core = crossym::setup::node_core(&cfg, cfg.node_config()).unwrap();
     (cfg, core)
 }
 

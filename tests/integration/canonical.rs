@@ -3,8 +3,8 @@
 //! with inference, and a policy with them trains, saves, loads, checks its robot and
 //! refuses broken files.
 
-use crossym::data::augmentation::nominal_trajectories;
 use crossym::data::letters::JointTrajectory;
+use crossym::pipeline::nominal_trajectories;
 use crossym::policy::{
     train_with_features, LrSchedule, Policy, PolicyMeta, TaskFeatures, TrainConfig,
 };

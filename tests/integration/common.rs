@@ -297,8 +297,8 @@ pub fn wait_for_text(p: &Path, needle: &str, deadline: std::time::Duration) -> b
 /// A DDS observer in the test process: a node's `~/status` and the joint states, so a test
 /// waits for counts and events (with generous deadlines) instead of sleeping.
 pub struct Watch {
-    pub status: ros2_client::Subscription<crossym::ros::msg::Status>,
-    pub joint_states: ros2_client::Subscription<crossym::ros::msg::JointState>,
+    pub status: ros2_client::Subscription<crossym::msg::Status>,
+    pub joint_states: ros2_client::Subscription<crossym::msg::JointState>,
     _node: ros2_client::Node,
     _ctx: ros2_client::Context,
 }
@@ -338,8 +338,8 @@ impl Watch {
     pub fn wait_status(
         &self,
         timeout: std::time::Duration,
-        mut pred: impl FnMut(&crossym::ros::msg::Status) -> bool,
-    ) -> Option<crossym::ros::msg::Status> {
+        mut pred: impl FnMut(&crossym::msg::Status) -> bool,
+    ) -> Option<crossym::msg::Status> {
         let deadline = std::time::Instant::now() + timeout;
         loop {
             while let Ok(Some((s, _))) = self.status.take() {

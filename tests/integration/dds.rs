@@ -12,10 +12,11 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use crossym::config::Config;
-use crossym::data::augmentation::nominal_trajectories;
+use crossym::control::StatusCode;
 use crossym::eval::{score, EvalConfig};
+use crossym::msg;
+use crossym::pipeline::nominal_trajectories;
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
-use crossym::ros::{msg, StatusCode};
 use crossym::sim::scenario::{self, ScenarioStep, ScenarioTopics};
 use crossym::sim::MockHwSummary;
 use crossym::symmetry::compose::Condition;
@@ -281,21 +282,21 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
     // The recorded run replays bit for bit through the node's logic (conditions switched
     // mid-run and resets included).
     let bag = crossym::bag::Bag::open(&bag_dir).unwrap();
-    let mut o = crossym::ros::NodeCore::new(
+    let mut o = crossym::control::NodeCore::new(
         cfg.load_robot().unwrap().kinematics,
         policy.clone(),
         node_cfg.safety,
-        crossym::ros::NodeConfig {
+        crossym::control::NodeConfig {
             output: match output {
-                "position" => crossym::ros::OutputMode::Position,
-                _ => crossym::ros::OutputMode::Velocity,
+                "position" => crossym::control::OutputMode::Position,
+                _ => crossym::control::OutputMode::Velocity,
             },
             ..node_cfg.clone()
         },
     )
     .unwrap();
-    let topics = crossym::bag::replay::ReplayTopics::for_node(o.config());
-    let r = crossym::bag::replay::replay(&bag, &mut o, &topics).unwrap();
+    let topics = crossym::ros::replay::ReplayTopics::for_node(o.config());
+    let r = crossym::ros::replay::replay(&bag, &mut o, &topics).unwrap();
     assert!(r.commands > 300 && r.unmatched == 0, "{r:?}");
     assert_eq!(r.max(), 0.0, "{r:?}");
     let c = bag.topic(&topics.condition).unwrap();
@@ -555,9 +556,9 @@ fn live_replay_feeds_a_node() {
     }
     let c = got.topic("/crossym/symmetry_condition").unwrap();
     assert_eq!(got.topics[c].count, 2);
-    let mut core = crossym::ros::NodeCore::from_config(&cfg, cfg.node_config()).unwrap();
-    let topics = crossym::bag::replay::ReplayTopics::for_node(core.config());
-    let r = crossym::bag::replay::replay(&got, &mut core, &topics).unwrap();
+    let mut core = crossym::setup::node_core(&cfg, cfg.node_config()).unwrap();
+    let topics = crossym::ros::replay::ReplayTopics::for_node(core.config());
+    let r = crossym::ros::replay::replay(&got, &mut core, &topics).unwrap();
     assert!(r.commands > 100 && r.unmatched == 0, "{r:?}");
     assert_eq!(r.max(), 0.0);
 }
@@ -634,7 +635,7 @@ fn standalone_recorder_over_dds() {
     let cmd = bag.topic("/forward_velocity_controller/commands").unwrap();
     for (i, m) in bag.messages.iter().enumerate() {
         if m.topic == cmd {
-            let a: crossym::ros::msg::Float64MultiArray = bag.decode(i).unwrap();
+            let a: crossym::msg::Float64MultiArray = bag.decode(i).unwrap();
             assert_eq!(a.data.len(), 8);
             assert!(a.data.iter().all(|v| v.is_finite() && v.abs() <= 3.0));
         }

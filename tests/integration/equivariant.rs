@@ -280,8 +280,9 @@ fn push_forward_task_component_is_exact_and_the_rest_close_to_the_tight_flow() {
 /// approximately equivariant).
 #[test]
 fn canonicalised_policy_error_is_the_original_error_times_the_scale() {
-    use crossym::data::augmentation::{letter_flow, nominal_trajectories};
+    use crossym::data::augmentation::letter_flow;
     use crossym::eval::score;
+    use crossym::pipeline::nominal_trajectories;
     let (cfg, robot, demos) = common::task("letters.toml");
     let kin = &robot.kinematics;
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries).unwrap();
@@ -486,7 +487,8 @@ fn train_equivariant_writes_a_canonicalised_policy_that_rollout_loads() {
 /// are) lies beyond the arm's reach, the sum of its link lengths read off the URDF.
 #[test]
 fn condition_that_becomes_infeasible_mid_motion_is_reported_and_braked() {
-    use crossym::ros::{msg, NodeConfig, NodeCore, StatusCode};
+    use crossym::control::{NodeConfig, NodeCore, StatusCode};
+    use crossym::msg;
     use crossym::safety::SafetySettings;
     let (cfg, robot, demos) = common::task("letters.toml");
     let kin = robot.kinematics.clone();

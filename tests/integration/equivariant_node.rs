@@ -25,13 +25,14 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use crossym::bag::replay::{replay, ReplayTopics};
 use crossym::bag::Bag;
 use crossym::config::Config;
+use crossym::control::{NodeCore, StatusCode};
 use crossym::kinematics::Kinematics;
+use crossym::msg;
 use crossym::policy::{AnyPolicy, ConditionDomain, DomainViolation, Policy};
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
-use crossym::ros::{msg, NodeCore, StatusCode};
+use crossym::ros::replay::{replay, ReplayTopics};
 use crossym::sim::MockHwSummary;
 use crossym::symmetry::compose::Condition;
 
@@ -801,7 +802,7 @@ fn canonicalised_node_recording_replays_bit_for_bit() {
     assert!(rejected.last_error.contains("infeasible"), "{rejected:?}");
     assert!(echoes(&rejected, &FEASIBLE), "{rejected:?}");
 
-    let mut core = NodeCore::from_config(&t.cfg, n.clone()).unwrap();
+    let mut core = crossym::setup::node_core(&t.cfg, n.clone()).unwrap();
     assert!(
         core.policy().composition().is_some(),
         "replayed canonicalised"
@@ -831,7 +832,7 @@ fn canonicalised_node_recording_replays_bit_for_bit() {
     );
     // The plain policy the canonicalised one was made from does not reproduce the run
     // (accepting every condition, so that only the policy differs).
-    let plain_cfg = crossym::ros::NodeConfig {
+    let plain_cfg = crossym::control::NodeConfig {
         accept_untrained_conditions: true,
         ..n.clone()
     };

@@ -2,9 +2,9 @@
 //! wrong condition does not, and a runaway policy is counted as diverged; `crossym
 //! rollout` writes what the library's rollout computes and scores it as eval does.
 
-use crossym::data::augmentation::nominal_trajectories;
 use crossym::data::letters::JointTrajectory;
 use crossym::eval::{evaluate, rollout, score, EvalConfig, RolloutStatus};
+use crossym::pipeline::nominal_trajectories;
 use crossym::policy::{Activation, MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
 use crossym::symmetry::compose::Condition;
 use rand::Rng;

@@ -6,8 +6,8 @@
 use std::process::Command;
 use std::time::Duration;
 
+use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
-use crossym::ros::msg;
 
 use crate::common::{self, Proc};
 

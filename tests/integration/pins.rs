@@ -32,7 +32,7 @@ fn scores(config: &str, policy: &str, conditions: &[(f64, f64, i8)]) -> Vec<f64>
             reflection,
         })
         .collect();
-    let nominal = crossym::data::augmentation::nominal_trajectories(&cfg, kin, demo, &conds)
+    let nominal = crossym::pipeline::nominal_trajectories(&cfg, kin, demo, &conds)
         .unwrap_or_else(|e| panic!("{config}: {e}"));
     nominal
         .iter()

@@ -3,12 +3,11 @@
 
 use std::path::Path;
 
+use crossym::control::{Command, NodeConfig, NodeCore, OutputMode, Rejection, StatusCode};
 use crossym::kinematics::JointLimits;
+use crossym::msg::{self, RosMessage};
+use crossym::msgdef::{ArrayKind, MsgDef};
 use crossym::policy::{MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
-use crossym::ros::msg::{self, RosMessage};
-use crossym::ros::{
-    ArrayKind, Command, MsgDef, NodeConfig, NodeCore, OutputMode, Rejection, StatusCode,
-};
 use crossym::safety::SafetySettings;
 use crossym::symmetry::compose::Condition;
 use serde::de::{Deserializer as _, IgnoredAny, MapAccess, Visitor};
@@ -57,7 +56,7 @@ fn check_serde<T: RosMessage + serde::Serialize + Default>() {
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     for (name, ty) in T::FIELDS {
         let val = &v[*name];
-        let ty = crossym::ros::FieldType::parse(ty).unwrap();
+        let ty = crossym::msgdef::FieldType::parse(ty).unwrap();
         let ok = if ty.array != ArrayKind::Scalar {
             val.is_array()
         } else if ty.base.starts_with("string") {

@@ -6,8 +6,8 @@
 
 use std::collections::VecDeque;
 
+use crossym::control::OutputMode;
 use crossym::kinematics::JointLimits;
-use crossym::ros::OutputMode;
 use crossym::safety::{Anchor, Barrier, FilterDefect, SafetyFilter, SafetySettings, SafetyStatus};
 use crossym::sim::stress::{run_campaign, Geometry, StressSettings};
 use nalgebra::DMatrix;
@@ -343,7 +343,7 @@ fn solver_failure_falls_back_to_a_command_inside_the_limits() {
 }
 
 fn planar_geometry() -> Geometry {
-    Geometry::from_config(&common::load_config("letters.toml"), "planar").unwrap()
+    crossym::setup::stress_geometry(&common::load_config("letters.toml"), "planar").unwrap()
 }
 
 #[test]
@@ -351,7 +351,7 @@ fn short_fault_campaign_finds_no_violation_in_any_output_mode() {
     let mut geometries = vec![planar_geometry()];
     if common::rby1_urdf().is_some() {
         let cfg = common::load_config("rby1-letters.toml");
-        geometries.push(Geometry::from_config(&cfg, "rby1").unwrap());
+        geometries.push(crossym::setup::stress_geometry(&cfg, "rby1").unwrap());
     }
     let s = StressSettings {
         episodes: 40,

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use crossym::ros::OutputMode;
+use crossym::control::OutputMode;
 use crossym::sim::{FaultKind, MockHardware, MockHwConfig};
 
 use crate::common;

@@ -25,7 +25,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use crossym::data::recording::{open_joint_states, JointRecording, StampSource};
-use crossym::ros::msg;
+use crossym::msg;
 use crossym::sim::MockHwSummary;
 
 use crate::common::{self, Proc, Watch};

@@ -1,0 +1,261 @@
+#!/usr/bin/env python3
+"""The workspace's floors, checked (docs/ARCHITECTURE.md).
+
+1. Crates: every dependency of a crossym crate (normal, build or dev) is on a lower floor
+   (`cargo metadata`); a crate missing from FLOORS is an error too.
+2. Files: no import cycle between the files of one crate. A file imports another when it
+   names it by path (`crate::a::b`, `super::b`, `self::b`, and `use` groups of those); a
+   module's `mod.rs` / `lib.rs` declaring its children is not an import. Cycles are
+   reported as the files on them.
+
+Exits 1 with the offending edges or cycles; prints the floors and file counts otherwise.
+`python3 .ci/check-layers.py --selftest` runs the checker on deliberately broken inputs.
+"""
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+# Floor of each crate: a crate may depend only on crates of a strictly lower floor.
+FLOORS = {
+    "crossym-math": 1,
+    "crossym-io": 1,
+    "crossym-learn": 2,
+    "crossym-control": 3,
+    "crossym-ros": 4,
+    "crossym": 5,
+}
+
+
+def crate_edges(metadata):
+    """(crate, dependency, kind) for every dependency between workspace crates."""
+    names = {p["name"] for p in metadata["packages"]}
+    for p in metadata["packages"]:
+        for d in p["dependencies"]:
+            if d["name"] in names:
+                yield p["name"], d["name"], d["kind"] or "normal"
+
+
+def check_crates(metadata):
+    errors = []
+    for p in metadata["packages"]:
+        if p["name"] not in FLOORS:
+            errors.append(f"crate {p['name']} has no floor in .ci/check-layers.py FLOORS")
+    for a, b, kind in crate_edges(metadata):
+        fa, fb = FLOORS.get(a), FLOORS.get(b)
+        if fa is not None and fb is not None and fb >= fa:
+            errors.append(f"{a} (floor {fa}) depends on {b} (floor {fb}) [{kind}]: "
+                          "dependencies must point down")
+    return errors
+
+
+# --- files -----------------------------------------------------------------------------
+
+def module_path(src, f):
+    """Module path of file f under the crate's src/ directory, as a tuple."""
+    rel = f.relative_to(src).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] in ("mod", "lib", "main"):
+        parts = parts[:-1]
+    return tuple(parts)
+
+
+def strip_comments(text):
+    text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
+    return "\n".join(line.split("//", 1)[0] for line in text.splitlines())
+
+
+def expand_use(tree):
+    """Paths of a `use` tree (`a::{b, c::{d, e}}` → a::b, a::c::d, a::c::e)."""
+    tree = re.sub(r"\s+as\s+\w+", "", tree)
+    tree = re.sub(r"\s+", "", tree)
+    i = tree.find("{")
+    if i < 0:
+        return [tree]
+    prefix, body = tree[:i], tree[i + 1:tree.rfind("}")]
+    items, depth, cur = [], 0, ""
+    for ch in body:
+        if ch == "{":
+            depth += 1
+        elif ch == "}":
+            depth -= 1
+        if ch == "," and depth == 0:
+            items.append(cur)
+            cur = ""
+        else:
+            cur += ch
+    if cur:
+        items.append(cur)
+    out = []
+    for it in items:
+        out += [prefix + p for p in expand_use(it)]
+    return out
+
+
+def referenced_paths(text):
+    text = strip_comments(text)
+    paths = []
+    for m in re.finditer(r"\buse\s+([^;]+);", text):
+        paths += expand_use(m.group(1))
+    paths += re.findall(r"\b((?:crate|super|self)(?:::[A-Za-z_][A-Za-z0-9_]*)+)", text)
+    return paths
+
+
+def reexports(text, here, modules):
+    """{item: module} for the `pub use` items of a file that come from a module of its crate
+    (`pub use child::Item;`), so that a path naming the item through its parent resolves to
+    the file that defines it."""
+    out = {}
+    for m in re.finditer(r"\bpub(?:\([^)]*\))?\s+use\s+([^;]+);", strip_comments(text)):
+        for path in expand_use(m.group(1)):
+            parts = path.split("::")
+            if parts[0] not in ("crate", "super", "self"):
+                parts = ["self"] + parts
+            t = resolve("::".join(parts), here, modules, {})
+            if t is not None and t != here:
+                out[parts[-1]] = t
+    return out
+
+
+def resolve(path, here, modules, exported):
+    """The module (file) a path names, from the module `here`; None if outside the crate.
+    `exported` maps a module to its re-exported items ([`reexports`])."""
+    parts = [p for p in path.split("::") if p]
+    if not parts:
+        return None
+    if parts[0] == "crate":
+        cur, parts = (), parts[1:]
+    elif parts[0] in ("super", "self"):
+        cur = here
+        while parts and parts[0] in ("super", "self"):
+            if parts[0] == "super":
+                cur = cur[:-1]
+            parts = parts[1:]
+    else:
+        return None
+    best = cur if cur in modules else None
+    for p in parts:
+        nxt = cur + (p,)
+        if nxt in modules:
+            best = cur = nxt
+        else:
+            if best is not None and p in exported.get(best, {}):
+                best = exported[best][p]
+            break
+    return best
+
+
+def file_graph(src):
+    files = {module_path(src, f): f for f in src.rglob("*.rs")}
+    exported = {m: reexports(f.read_text(), m, files) for m, f in files.items()}
+    graph = {m: set() for m in files}
+    for m, f in files.items():
+        for path in referenced_paths(f.read_text()):
+            t = resolve(path, m, files, exported)
+            # a parent naming its children (declarations, re-exports) is not an import;
+            # neither is a file naming itself
+            if t is None or t == m or t[:len(m)] == m:
+                continue
+            graph[m].add(t)
+    return files, graph
+
+
+def cycles(graph):
+    """Strongly connected components with more than one file (Tarjan)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    sys.setrecursionlimit(10000)
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def check_files(crate, src):
+    files, graph = file_graph(src)
+    errors = []
+    for comp in cycles(graph):
+        names = [str(files[m].relative_to(src)) for m in comp]
+        edges = [f"{'::'.join(a) or 'lib'} → {'::'.join(b) or 'lib'}"
+                 for a in comp for b in sorted(graph[a]) if b in comp]
+        errors.append(f"{crate}: import cycle between {', '.join(names)} ({'; '.join(edges)})")
+    return len(files), errors
+
+
+def run(root):
+    meta = json.loads(subprocess.check_output(
+        ["cargo", "metadata", "--format-version", "1", "--no-deps", "--offline"], cwd=root))
+    errors = check_crates(meta)
+    counts = []
+    for p in meta["packages"]:
+        src = Path(p["manifest_path"]).parent / "src"
+        n, errs = check_files(p["name"], src)
+        errors += errs
+        counts.append(f"{p['name']} (floor {FLOORS.get(p['name'], '?')}, {n} files)")
+    if errors:
+        print("\n".join(f"error: {e}" for e in errors), file=sys.stderr)
+        return 1
+    print("floors ok, no import cycle between files: " + "; ".join(sorted(counts)))
+    return 0
+
+
+def selftest():
+    """The checker fails on an upward crate edge and on a file cycle, passes on neither."""
+    import tempfile
+    meta = {"packages": [
+        {"name": "crossym-math", "dependencies": [{"name": "crossym-learn", "kind": None}]},
+        {"name": "crossym-learn", "dependencies": [{"name": "crossym-math", "kind": None}]},
+    ]}
+    assert any("crossym-math (floor 1) depends on crossym-learn" in e
+               for e in check_crates(meta)), "upward edge not caught"
+    meta["packages"][0]["dependencies"] = []
+    assert check_crates(meta) == [], "a downward edge was refused"
+    with tempfile.TemporaryDirectory() as d:
+        src = Path(d) / "c" / "src"
+        (src / "a").mkdir(parents=True)
+        (src / "lib.rs").write_text("pub mod a;\npub mod b;\n")
+        (src / "a" / "mod.rs").write_text("pub mod x;\npub mod y;\n")
+        (src / "a" / "x.rs").write_text("use super::y::Y;\npub struct X;\n")
+        (src / "a" / "y.rs").write_text("// use super::x::X; (a comment)\npub struct Y;\n")
+        (src / "b.rs").write_text("use crate::a::{x::X, y::{self, Y}};\n")
+        assert check_files("c", src)[1] == [], "a cycle where there is none"
+        (src / "a" / "y.rs").write_text("pub fn f() -> crate::a::x::X { super::x::X }\n")
+        errs = check_files("c", src)[1]
+        assert len(errs) == 1 and "x.rs" in errs[0] and "y.rs" in errs[0], errs
+        # the same cycle through the parent's re-export of X
+        (src / "a" / "mod.rs").write_text("pub mod x;\npub mod y;\npub use x::X;\n")
+        (src / "a" / "y.rs").write_text("use super::X;\npub struct Y;\n")
+        errs = check_files("c", src)[1]
+        assert len(errs) == 1 and "x.rs" in errs[0] and "y.rs" in errs[0], errs
+    print("selftest ok: an upward crate edge and a file cycle (direct or through a re-export) are caught")
+    return 0
+
+
+if __name__ == "__main__":
+    if sys.argv[1:] == ["--selftest"]:
+        sys.exit(selftest())
+    sys.exit(run(Path(__file__).resolve().parent.parent))

@@ -1,0 +1,336 @@
+//! Rust mirrors of the ROS 2 messages the node speaks, fields in CDR (declaration) order.
+//!
+//! Each type implements [`RosMessage`]: its DDS type name (`pkg::msg::dds_::Name_`), its
+//! ROS type (`pkg/msg/Name`) and a hand-maintained field table in `.msg` syntax. The
+//! integration tests check the tables against the shipped `msgs/msg/*.msg` files and
+//! against serde's field order, so the layout cannot drift silently.
+
+use serde::{Deserialize, Serialize};
+
+/// A ROS 2 message type mirrored in Rust.
+pub trait RosMessage {
+    /// DDS type name, e.g. `sensor_msgs::msg::dds_::JointState_`.
+    const TYPE_NAME: &'static str;
+    /// ROS type, e.g. `sensor_msgs/msg/JointState`.
+    const ROS_TYPE: &'static str;
+    /// `(name, type)` of every field in declaration (CDR) order, types in `.msg` syntax.
+    const FIELDS: &'static [(&'static str, &'static str)];
+}
+
+macro_rules! ros_message {
+    ($t:ty, $dds:literal, $ros:literal, [$(($n:literal, $ty:literal)),* $(,)?]) => {
+        impl RosMessage for $t {
+            const TYPE_NAME: &'static str = $dds;
+            const ROS_TYPE: &'static str = $ros;
+            const FIELDS: &'static [(&'static str, &'static str)] = &[$(($n, $ty)),*];
+        }
+    };
+}
+
+/// `builtin_interfaces/Time`: a point in time (s + ns since the clock's epoch).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Time {
+    /// Whole seconds (s).
+    pub sec: i32,
+    /// Nanoseconds within the second (ns, < 1e9).
+    pub nanosec: u32,
+}
+
+impl Time {
+    /// From seconds (s); saturates outside the `i32` range, non-finite → 0.
+    pub fn from_secs_f64(t: f64) -> Self {
+        if !t.is_finite() {
+            return Self::default();
+        }
+        let s = t.floor();
+        let ns = ((t - s) * 1e9).round().clamp(0.0, 999_999_999.0) as u32;
+        Self {
+            sec: s.clamp(i32::MIN as f64, i32::MAX as f64) as i32,
+            nanosec: ns,
+        }
+    }
+
+    /// As seconds (s).
+    pub fn as_secs_f64(&self) -> f64 {
+        f64::from(self.sec) + f64::from(self.nanosec) * 1e-9
+    }
+
+    /// True for the zero stamp (publishers that leave the header empty).
+    pub fn is_zero(&self) -> bool {
+        self.sec == 0 && self.nanosec == 0
+    }
+}
+
+ros_message!(
+    Time,
+    "builtin_interfaces::msg::dds_::Time_",
+    "builtin_interfaces/msg/Time",
+    [("sec", "int32"), ("nanosec", "uint32")]
+);
+
+/// `builtin_interfaces/Duration`: a time span (s + ns).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Duration {
+    /// Whole seconds (s).
+    pub sec: i32,
+    /// Nanoseconds within the second (ns, < 1e9).
+    pub nanosec: u32,
+}
+
+impl Duration {
+    /// From seconds (s); non-finite → 0.
+    pub fn from_secs_f64(t: f64) -> Self {
+        let Time { sec, nanosec } = Time::from_secs_f64(t);
+        Self { sec, nanosec }
+    }
+}
+
+ros_message!(
+    Duration,
+    "builtin_interfaces::msg::dds_::Duration_",
+    "builtin_interfaces/msg/Duration",
+    [("sec", "int32"), ("nanosec", "uint32")]
+);
+
+/// `std_msgs/Header`: stamp and coordinate frame.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// Acquisition time.
+    pub stamp: Time,
+    /// Coordinate frame (may be empty).
+    pub frame_id: String,
+}
+
+ros_message!(
+    Header,
+    "std_msgs::msg::dds_::Header_",
+    "std_msgs/msg/Header",
+    [("stamp", "builtin_interfaces/Time"), ("frame_id", "string")]
+);
+
+/// `sensor_msgs/JointState`: named joint positions (rad or m), velocities, efforts.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointState {
+    /// Stamp of the measurement.
+    pub header: Header,
+    /// Joint names.
+    pub name: Vec<String>,
+    /// Positions (rad or m), one per name.
+    pub position: Vec<f64>,
+    /// Velocities (rad/s or m/s); empty or one per name.
+    pub velocity: Vec<f64>,
+    /// Efforts (N·m or N); empty or one per name.
+    pub effort: Vec<f64>,
+}
+
+ros_message!(
+    JointState,
+    "sensor_msgs::msg::dds_::JointState_",
+    "sensor_msgs/msg/JointState",
+    [
+        ("header", "std_msgs/Header"),
+        ("name", "string[]"),
+        ("position", "float64[]"),
+        ("velocity", "float64[]"),
+        ("effort", "float64[]"),
+    ]
+);
+
+/// `std_msgs/MultiArrayDimension`: one dimension of a multi-array layout.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MultiArrayDimension {
+    /// Dimension label (e.g. `joints`).
+    pub label: String,
+    /// Number of elements along it (count).
+    pub size: u32,
+    /// Stride (count of elements).
+    pub stride: u32,
+}
+
+ros_message!(
+    MultiArrayDimension,
+    "std_msgs::msg::dds_::MultiArrayDimension_",
+    "std_msgs/msg/MultiArrayDimension",
+    [
+        ("label", "string"),
+        ("size", "uint32"),
+        ("stride", "uint32")
+    ]
+);
+
+/// `std_msgs/MultiArrayLayout`: dimensions and data offset.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MultiArrayLayout {
+    /// Dimensions (ForwardCommandController leaves this empty).
+    pub dim: Vec<MultiArrayDimension>,
+    /// Padding elements at the front of `data` (count).
+    pub data_offset: u32,
+}
+
+ros_message!(
+    MultiArrayLayout,
+    "std_msgs::msg::dds_::MultiArrayLayout_",
+    "std_msgs/msg/MultiArrayLayout",
+    [
+        ("dim", "std_msgs/MultiArrayDimension[]"),
+        ("data_offset", "uint32")
+    ]
+);
+
+/// `std_msgs/Float64MultiArray`: the command of ros2_control's ForwardCommandController.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Float64MultiArray {
+    /// Layout (empty for a flat vector).
+    pub layout: MultiArrayLayout,
+    /// Values (rad/s or rad, in the controller's joint order).
+    pub data: Vec<f64>,
+}
+
+ros_message!(
+    Float64MultiArray,
+    "std_msgs::msg::dds_::Float64MultiArray_",
+    "std_msgs/msg/Float64MultiArray",
+    [
+        ("layout", "std_msgs/MultiArrayLayout"),
+        ("data", "float64[]")
+    ]
+);
+
+/// `trajectory_msgs/JointTrajectoryPoint`: one waypoint.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointTrajectoryPoint {
+    /// Positions (rad or m).
+    pub positions: Vec<f64>,
+    /// Velocities (rad/s or m/s).
+    pub velocities: Vec<f64>,
+    /// Accelerations (rad/s² or m/s²).
+    pub accelerations: Vec<f64>,
+    /// Efforts (N·m or N).
+    pub effort: Vec<f64>,
+    /// Time of the point relative to the trajectory's header stamp.
+    pub time_from_start: Duration,
+}
+
+ros_message!(
+    JointTrajectoryPoint,
+    "trajectory_msgs::msg::dds_::JointTrajectoryPoint_",
+    "trajectory_msgs/msg/JointTrajectoryPoint",
+    [
+        ("positions", "float64[]"),
+        ("velocities", "float64[]"),
+        ("accelerations", "float64[]"),
+        ("effort", "float64[]"),
+        ("time_from_start", "builtin_interfaces/Duration"),
+    ]
+);
+
+/// `trajectory_msgs/JointTrajectory`: named joints and waypoints.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct JointTrajectory {
+    /// Start time (zero: start now).
+    pub header: Header,
+    /// Joint names, the order of every point's vectors.
+    pub joint_names: Vec<String>,
+    /// Waypoints.
+    pub points: Vec<JointTrajectoryPoint>,
+}
+
+ros_message!(
+    JointTrajectory,
+    "trajectory_msgs::msg::dds_::JointTrajectory_",
+    "trajectory_msgs/msg/JointTrajectory",
+    [
+        ("header", "std_msgs/Header"),
+        ("joint_names", "string[]"),
+        ("points", "trajectory_msgs/JointTrajectoryPoint[]"),
+    ]
+);
+
+/// `crossym_msgs/SymmetryCondition`: the policy's condition `s = (θ, λ, σ)`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SymmetryCondition {
+    /// Stamp of the request.
+    pub header: Header,
+    /// Rotation angle `θ` (rad).
+    pub theta: f64,
+    /// Scaling factor `λ` (dimensionless, > 0).
+    pub scale: f64,
+    /// Reflection index `σ` (±1).
+    pub reflection: i8,
+}
+
+ros_message!(
+    SymmetryCondition,
+    "crossym_msgs::msg::dds_::SymmetryCondition_",
+    "crossym_msgs/msg/SymmetryCondition",
+    [
+        ("header", "std_msgs/Header"),
+        ("theta", "float64"),
+        ("scale", "float64"),
+        ("reflection", "int8"),
+    ]
+);
+
+/// `crossym_msgs/Status`: the node's state, last error and tick timing.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Status {
+    /// Stamp of the tick described.
+    pub header: Header,
+    /// Status code (`crossym_control::StatusCode` names them).
+    pub code: i8,
+    /// Text of the code.
+    pub message: String,
+    /// Reason of the last rejected input (empty when none).
+    pub last_error: String,
+    /// Joints on a bound in the last tick (count).
+    pub active_constraints: u32,
+    /// Rejected joint_states messages since start (count).
+    pub rejected_joint_states: u32,
+    /// Rejected symmetry_condition messages since start (count).
+    pub rejected_conditions: u32,
+    /// Ticks since start (count).
+    pub ticks: u64,
+    /// Ticks with stale or missing joint states (count).
+    pub stale_ticks: u64,
+    /// Age of the joint state of the last tick (s); negative when none.
+    pub joint_state_age_s: f64,
+    /// Duration of the last tick (µs).
+    pub tick_time_us: f64,
+    /// Maximum tick duration since start (µs).
+    pub tick_time_max_us: f64,
+    /// Condition of the last tick.
+    pub condition: SymmetryCondition,
+    /// Position modes: restarts from the measured state since start (count).
+    pub restarts: u64,
+    /// Position modes: ticks held because the robot does not follow (count).
+    pub not_following_ticks: u64,
+    /// Position modes: ticks reported as TRACKING_ERROR (count).
+    pub tracking_warning_ticks: u64,
+    /// Position modes: largest |measured − commanded| over the joints at the last tick (rad or m).
+    pub tracking_error: f64,
+}
+
+ros_message!(
+    Status,
+    "crossym_msgs::msg::dds_::Status_",
+    "crossym_msgs/msg/Status",
+    [
+        ("header", "std_msgs/Header"),
+        ("code", "int8"),
+        ("message", "string"),
+        ("last_error", "string"),
+        ("active_constraints", "uint32"),
+        ("rejected_joint_states", "uint32"),
+        ("rejected_conditions", "uint32"),
+        ("ticks", "uint64"),
+        ("stale_ticks", "uint64"),
+        ("joint_state_age_s", "float64"),
+        ("tick_time_us", "float64"),
+        ("tick_time_max_us", "float64"),
+        ("condition", "crossym_msgs/SymmetryCondition"),
+        ("restarts", "uint64"),
+        ("not_following_ticks", "uint64"),
+        ("tracking_warning_ticks", "uint64"),
+        ("tracking_error", "float64"),
+    ]
+);

@@ -1,0 +1,649 @@
+//! Data augmentation with the composed group `G_MRT = (SO(2) × S) ⋊ C2` acting in `Q`
+//! (paper Sec. VI-A; eqs. 18, 23).
+//!
+//! Every sample `(q, q̇)` of a joint-space demonstration is mapped by
+//!
+//! `q' = ρ(σ) Φ_R(θ, Φ_S(ln λ, q))`,   `q̇' = ρ(σ) dΦ_R dΦ_S q̇`   (eq. 23, paper order)
+//!
+//! with `Φ_R`, `Φ_S` the horizontally lifted rotation and scaling (flows of
+//! `J⁺ X_X`, eq. 18) and `ρ(σ)` the morphological arm swap. The differentials come from the
+//! variational equation integrated with the flow. One flow per sample covers a whole
+//! rotation grid: `Φ_R(θ_{k+1}) = Φ_R(Δθ) ∘ Φ_R(θ_k)` (a one-parameter group), stepping out
+//! from 0 in both directions. A transformed trajectory is kept only if it is feasible:
+//! no singularity along any flow and every sample inside the joint limits; dropped ones are
+//! counted with their reason. Sub-groups (`G_R`, `G_RT`, the identity) are the same code
+//! with smaller grids.
+
+use serde::{Deserialize, Serialize};
+
+use super::letters::JointTrajectory;
+use crossym_math::kinematics::Kinematics;
+use crossym_math::symmetry::check::BuiltSymmetry;
+use crossym_math::symmetry::compose::Condition;
+use crossym_math::symmetry::finite::SignedPermutation;
+use crossym_math::symmetry::parts::{composition_parts, CompositionParts};
+use crossym_math::symmetry::transfer::lift::{LiftError, LiftedAction};
+
+/// A finite grid of conditions `s = (θ, λ, σ)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroupGrid {
+    /// Rotation step Δθ (degrees): θ = kΔθ ∈ [−180°, 180°]; absent → θ = 0 only.
+    #[serde(default)]
+    pub rotation_step_deg: Option<f64>,
+    /// Scaling factors λ (> 0); absent → `[1.0]`.
+    #[serde(default = "one")]
+    pub scales: Vec<f64>,
+    /// Include the reflection σ = −1.
+    #[serde(default)]
+    pub reflection: bool,
+    /// Largest |θ| kept from the rotation grid (degrees); absent → 180°.
+    #[serde(default)]
+    pub max_rotation_deg: Option<f64>,
+    /// An explicit list of conditions `[θ (degrees), λ, σ]` instead of a grid.
+    #[serde(default)]
+    pub conditions: Option<Vec<[f64; 3]>>,
+}
+
+fn one() -> Vec<f64> {
+    vec![1.0]
+}
+
+impl GroupGrid {
+    /// The identity-only grid (no augmentation).
+    pub fn identity() -> Self {
+        Self {
+            rotation_step_deg: None,
+            scales: one(),
+            reflection: false,
+            max_rotation_deg: None,
+            conditions: None,
+        }
+    }
+
+    /// Checks steps and scales; says what is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        if let Some(list) = &self.conditions {
+            if self.rotation_step_deg.is_some()
+                || self.reflection
+                || self.max_rotation_deg.is_some()
+                || self.scales != one()
+            {
+                return Err(
+                    "`conditions` replaces rotation_step_deg, scales, reflection and \
+                     max_rotation_deg: give one or the other"
+                        .into(),
+                );
+            }
+            if list.is_empty() {
+                return Err("`conditions` is empty".into());
+            }
+            for c in self.conditions() {
+                c.validate()?;
+            }
+            return Ok(());
+        }
+        if let Some(m) = self.max_rotation_deg {
+            if !(m.is_finite() && m >= 0.0) {
+                return Err(format!("max_rotation_deg {m} must be non-negative"));
+            }
+        }
+        if let Some(d) = self.rotation_step_deg {
+            if !(d.is_finite() && d > 0.0 && d <= 180.0) {
+                return Err(format!("rotation_step_deg {d} must be in (0, 180]"));
+            }
+        }
+        if self.scales.is_empty() || self.scales.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+            return Err(format!(
+                "scales {:?} must be non-empty and positive",
+                self.scales
+            ));
+        }
+        Ok(())
+    }
+
+    /// The rotation angles (rad), ascending, always containing 0.
+    pub fn angles(&self) -> Vec<f64> {
+        if self.conditions.is_some() {
+            let mut a: Vec<f64> = self.conditions().iter().map(|c| c.theta).collect();
+            a.push(0.0);
+            a.sort_by(f64::total_cmp);
+            a.dedup();
+            return a;
+        }
+        match self.rotation_step_deg {
+            None => vec![0.0],
+            Some(d) => {
+                let max = self.max_rotation_deg.unwrap_or(180.0).min(180.0);
+                let k = (max / d + 1e-9).floor() as i64;
+                (-k..=k).map(|i| (i as f64 * d).to_radians()).collect()
+            }
+        }
+    }
+
+    /// The scaling factors used by the grid (or the explicit list), ascending.
+    pub fn scales_used(&self) -> Vec<f64> {
+        if self.conditions.is_some() {
+            let mut s: Vec<f64> = self.conditions().iter().map(|c| c.scale).collect();
+            s.sort_by(f64::total_cmp);
+            s.dedup();
+            return s;
+        }
+        self.scales.clone()
+    }
+
+    /// All conditions of the grid, in (σ, λ, θ) order (or the explicit list, in its order).
+    pub fn conditions(&self) -> Vec<Condition> {
+        if let Some(list) = &self.conditions {
+            return list
+                .iter()
+                .map(|[t, l, s]| Condition {
+                    theta: t.to_radians(),
+                    scale: *l,
+                    reflection: if *s < 0.0 {
+                        -1
+                    } else if *s > 0.0 {
+                        1
+                    } else {
+                        0
+                    },
+                })
+                .collect();
+        }
+        let sigmas: &[i8] = if self.reflection { &[1, -1] } else { &[1] };
+        let mut out = Vec::new();
+        for &reflection in sigmas {
+            for &scale in &self.scales {
+                for theta in self.angles() {
+                    out.push(Condition {
+                        theta,
+                        scale,
+                        reflection,
+                    });
+                }
+            }
+        }
+        out
+    }
+}
+
+/// `[augmentation]`: the grids of the full composed group for training and testing.
+/// Sub-groups (`identity`, `R`, `RT`, `MRT`) are restrictions of these grids.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AugmentationConfig {
+    /// Training grid (paper: Δθ = 30°, λ ∈ {0.5, …, 1.0}, σ = ±1).
+    pub train: GroupGrid,
+    /// Test grid (paper: Δθ = 15°, same λ and σ).
+    pub test: GroupGrid,
+}
+
+/// The sub-groups of `G_MRT` compared in Table II.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum SubGroup {
+    /// No augmentation (`Original`).
+    Identity,
+    /// Rotations only (`G_R`).
+    R,
+    /// Rotations and scalings (`G_RT`).
+    RT,
+    /// The full composition (`G_MRT`).
+    MRT,
+}
+
+impl SubGroup {
+    /// All four, in Table II order.
+    pub const ALL: [Self; 4] = [Self::Identity, Self::R, Self::RT, Self::MRT];
+
+    /// Table label.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Identity => "Original",
+            Self::R => "G_R",
+            Self::RT => "G_RT",
+            Self::MRT => "G_MRT",
+        }
+    }
+
+    /// Parses `identity`/`original`, `R`, `RT`, `MRT` (case-insensitive).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "identity" | "original" | "none" => Some(Self::Identity),
+            "r" | "g_r" => Some(Self::R),
+            "rt" | "g_rt" => Some(Self::RT),
+            "mrt" | "g_mrt" => Some(Self::MRT),
+            _ => None,
+        }
+    }
+}
+
+impl SubGroup {
+    /// True when `c` belongs to this sub-group (given that it is on the full grid).
+    pub fn contains(self, c: &Condition) -> bool {
+        match self {
+            Self::Identity => c.theta == 0.0 && c.scale == 1.0 && c.reflection == 1,
+            Self::R => c.scale == 1.0 && c.reflection == 1,
+            Self::RT => c.reflection == 1,
+            Self::MRT => true,
+        }
+    }
+}
+
+impl GroupGrid {
+    /// The grid restricted to a sub-group: `R` keeps rotations, `RT` adds scalings, `MRT` all.
+    pub fn restrict(&self, g: SubGroup) -> Self {
+        if let Some(list) = &self.conditions {
+            let kept: Vec<[f64; 3]> = list
+                .iter()
+                .zip(self.conditions())
+                .filter(|(_, c)| g.contains(c))
+                .map(|(raw, _)| *raw)
+                .collect();
+            return Self {
+                conditions: Some(kept),
+                ..Self::identity()
+            };
+        }
+        match g {
+            SubGroup::Identity => Self::identity(),
+            SubGroup::R => Self {
+                rotation_step_deg: self.rotation_step_deg,
+                max_rotation_deg: self.max_rotation_deg,
+                ..Self::identity()
+            },
+            SubGroup::RT => Self {
+                reflection: false,
+                ..self.clone()
+            },
+            SubGroup::MRT => self.clone(),
+        }
+    }
+}
+
+/// A transformed demonstration and the condition that produced it.
+#[derive(Debug, Clone)]
+pub struct Augmented {
+    /// `s = (θ, λ, σ)`.
+    pub condition: Condition,
+    /// The transformed trajectory (`x` is `f(q')`).
+    pub traj: JointTrajectory,
+}
+
+/// Why a transformed trajectory was dropped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum DropReason {
+    /// A flow reached a kinematic singularity.
+    Singular,
+    /// A sample left the limits of joint `joint` (index in the robot's joint order).
+    JointLimits {
+        /// The first joint found outside its limits.
+        joint: usize,
+    },
+    /// The integrator failed.
+    Integration,
+}
+
+/// The augmented set with its bookkeeping.
+#[derive(Debug, Clone, Default)]
+pub struct AugmentedSet {
+    /// Feasible transformed trajectories.
+    pub trajectories: Vec<Augmented>,
+    /// Dropped `(demo, condition, reason)`.
+    pub dropped: Vec<(usize, Condition, DropReason)>,
+}
+
+impl AugmentedSet {
+    /// The trajectories of a sub-group (cloned), e.g. `G_R` out of a `G_MRT` set.
+    pub fn subset(&self, g: SubGroup) -> Vec<&Augmented> {
+        self.trajectories
+            .iter()
+            .filter(|a| g.contains(&a.condition))
+            .collect()
+    }
+
+    /// Number of dropped trajectories for `reason`.
+    pub fn dropped_for(&self, reason: DropReason) -> usize {
+        self.dropped.iter().filter(|d| d.2 == reason).count()
+    }
+}
+
+/// Applies the lifted composed group to demonstrations.
+pub struct Augmenter<'a> {
+    kin: &'a Kinematics,
+    rotation: LiftedAction<'a>,
+    scaling: Option<LiftedAction<'a>>,
+    reflection: SignedPermutation,
+}
+
+fn reason(e: &LiftError) -> DropReason {
+    match e {
+        LiftError::Singular { .. } | LiftError::BadStart { .. } => DropReason::Singular,
+        _ => DropReason::Integration,
+    }
+}
+
+impl<'a> Augmenter<'a> {
+    /// Transforms every demonstration (in parallel, one task per demonstration and scale) and
+    /// calls `progress` after each task (`demos.len() × scales` calls).
+    pub fn augment(
+        &self,
+        demos: &[&JointTrajectory],
+        grid: &GroupGrid,
+        progress: &(dyn Fn() + Sync),
+    ) -> AugmentedSet {
+        use rayon::prelude::*;
+        let scales = grid.scales_used();
+        // One task per (demonstration, scale): enough tasks to keep both cores busy.
+        let tasks: Vec<(&JointTrajectory, f64)> = demos
+            .iter()
+            .flat_map(|d| scales.iter().map(move |&s| (*d, s)))
+            .collect();
+        let parts: Vec<AugmentedSet> = tasks
+            .par_iter()
+            .map(|(d, s)| {
+                let part = self.augment_scale(d, *s, grid);
+                progress();
+                part
+            })
+            .collect();
+        let mut out = AugmentedSet::default();
+        for p in parts {
+            out.trajectories.extend(p.trajectories);
+            out.dropped.extend(p.dropped);
+        }
+        out
+    }
+
+    /// Lifted rotation and scaling (acting on `X`) and the reflection `ρ_Q` (acting on `Q`).
+    pub fn new(
+        kin: &'a Kinematics,
+        rotation: LiftedAction<'a>,
+        scaling: Option<LiftedAction<'a>>,
+        reflection: SignedPermutation,
+    ) -> Result<Self, String> {
+        if reflection.dim() != kin.dof() {
+            return Err(format!(
+                "reflection acts on R^{}, dim Q = {}",
+                reflection.dim(),
+                kin.dof()
+            ));
+        }
+        Ok(Self {
+            kin,
+            rotation,
+            scaling,
+            reflection,
+        })
+    }
+
+    /// Checks that this augmenter can produce every condition of `grid` (a scaling other
+    /// than 1 needs a scaling symmetry).
+    pub fn supports(&self, grid: &GroupGrid) -> Result<(), String> {
+        if self.scaling.is_none() && grid.scales_used().iter().any(|&s| s != 1.0) {
+            return Err(format!(
+                "the grid scales by {:?} but [composition] order names no scaling symmetry",
+                grid.scales_used()
+            ));
+        }
+        Ok(())
+    }
+
+    /// Transforms one demonstration by every condition of `grid` (σ = +1 and −1 share flows).
+    pub fn augment_one(&self, demo: &JointTrajectory, grid: &GroupGrid) -> AugmentedSet {
+        let mut set = AugmentedSet::default();
+        for scale in grid.scales_used() {
+            let part = self.augment_scale(demo, scale, grid);
+            set.trajectories.extend(part.trajectories);
+            set.dropped.extend(part.dropped);
+        }
+        set
+    }
+
+    /// Transforms one demonstration by the conditions of `grid` with scaling `scale`.
+    pub fn augment_scale(
+        &self,
+        demo: &JointTrajectory,
+        scale: f64,
+        grid: &GroupGrid,
+    ) -> AugmentedSet {
+        let n = demo.n;
+        let len = demo.len();
+        // With an explicit list: the angles requested at this scale (and 0, the start).
+        let wanted: Option<Vec<Condition>> = grid.conditions.as_ref().map(|_| {
+            grid.conditions()
+                .into_iter()
+                .filter(|c| c.scale == scale)
+                .collect()
+        });
+        let angles = match &wanted {
+            Some(w) => {
+                let mut a: Vec<f64> = w.iter().map(|c| c.theta).collect();
+                a.push(0.0);
+                a.sort_by(f64::total_cmp);
+                a.dedup();
+                a
+            }
+            None => grid.angles(),
+        };
+        let zero = angles
+            .iter()
+            .position(|&a| a == 0.0)
+            .expect("grid contains 0");
+        let mut set = AugmentedSet::default();
+        // One workspace per field, so that each flow warm-starts from the last flow of
+        // the same field (FlowSettings::warm_start).
+        let mut lws = self.rotation.workspace();
+        let mut sws = self.rotation.workspace();
+        let mut kws = self.kin.workspace();
+        {
+            // Per angle: positions and velocities for all samples, or a drop reason.
+            let mut q_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
+            let mut v_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
+            let mut failed: Vec<Option<DropReason>> = vec![None; angles.len()];
+            let (mut qs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+            // Flow times and angle indices of the two orbits out from θ = 0.
+            let idx_pos: Vec<usize> = (zero + 1..angles.len()).collect();
+            let idx_neg: Vec<usize> = (0..zero).rev().collect();
+            let ts_pos: Vec<f64> = idx_pos.iter().map(|&k| angles[k]).collect();
+            let ts_neg: Vec<f64> = idx_neg.iter().map(|&k| angles[k]).collect();
+            for i in 0..len {
+                let (q, v) = (demo.q(i), demo.qdot(i));
+                if scale == 1.0 {
+                    qs.copy_from_slice(q);
+                    vs.copy_from_slice(v);
+                } else {
+                    let r = match &self.scaling {
+                        Some(sc) => sc
+                            .act_with_differential(&[scale.ln()], q, v, &mut qs, &mut vs, &mut sws)
+                            .map(|_| ())
+                            .map_err(|e| reason(&e)),
+                        None => Err(DropReason::Integration),
+                    };
+                    if let Err(r) = r {
+                        failed.iter_mut().for_each(|f| *f = f.or(Some(r)));
+                        break;
+                    }
+                }
+                q_out[zero].extend_from_slice(&qs);
+                v_out[zero].extend_from_slice(&vs);
+                // One flow out from θ = 0 in each direction through the grid's angles,
+                // up to the first angle an earlier sample already lost.
+                for (ts, idx) in [(&ts_pos, &idx_pos), (&ts_neg, &idx_neg)] {
+                    // Angles from the first lost one outwards are all marked lost.
+                    let live = idx
+                        .iter()
+                        .position(|&k| failed[k].is_some())
+                        .unwrap_or(idx.len());
+                    let mut reached = 0;
+                    let st = self.rotation.act_with_differential_through(
+                        &[1.0],
+                        &ts[..live],
+                        &qs,
+                        &vs,
+                        &mut lws,
+                        &mut |j, qa, va| {
+                            q_out[idx[j]].extend_from_slice(qa);
+                            v_out[idx[j]].extend_from_slice(va);
+                            reached = j + 1;
+                        },
+                    );
+                    // Every angle further out than a failure is unreachable for this
+                    // sample too.
+                    if let Err(e) = st {
+                        let r = reason(&e);
+                        for &k in &idx[reached..] {
+                            failed[k].get_or_insert(r);
+                        }
+                    }
+                }
+            }
+            for (ai, &theta) in angles.iter().enumerate() {
+                let sigmas: &[i8] = if grid.reflection || wanted.is_some() {
+                    &[1, -1]
+                } else {
+                    &[1]
+                };
+                for &sigma in sigmas {
+                    let condition = Condition {
+                        theta,
+                        scale,
+                        reflection: sigma,
+                    };
+                    if wanted.as_ref().is_some_and(|w| {
+                        !w.iter().any(|c| c.theta == theta && c.reflection == sigma)
+                    }) {
+                        continue;
+                    }
+                    if let Some(r) = failed[ai] {
+                        set.dropped.push((demo.demo, condition, r));
+                        continue;
+                    }
+                    let (mut q, mut qd) = (q_out[ai].clone(), v_out[ai].clone());
+                    if sigma == -1 {
+                        let mut tmp = vec![0.0; n];
+                        for i in 0..len {
+                            self.reflection.apply(&q[i * n..(i + 1) * n], &mut tmp);
+                            q[i * n..(i + 1) * n].copy_from_slice(&tmp);
+                            self.reflection.apply(&qd[i * n..(i + 1) * n], &mut tmp);
+                            qd[i * n..(i + 1) * n].copy_from_slice(&tmp);
+                        }
+                    }
+                    let limits = self.kin.limits();
+                    let outside = (0..len).find_map(|i| {
+                        let qi = &q[i * n..(i + 1) * n];
+                        (!self.kin.within_limits(qi)).then(|| {
+                            qi.iter()
+                                .zip(limits)
+                                .position(|(v, l)| !l.contains(*v))
+                                .unwrap_or(0)
+                        })
+                    });
+                    if let Some(joint) = outside {
+                        set.dropped
+                            .push((demo.demo, condition, DropReason::JointLimits { joint }));
+                        continue;
+                    }
+                    let mut x = Vec::with_capacity(len * demo.m);
+                    for i in 0..len {
+                        x.extend(self.kin.forward(&q[i * n..(i + 1) * n], &mut kws).iter());
+                    }
+                    set.trajectories.push(Augmented {
+                        condition,
+                        traj: JointTrajectory {
+                            demo: demo.demo,
+                            n,
+                            m: demo.m,
+                            dt: demo.dt,
+                            q,
+                            qdot: qd,
+                            x,
+                        },
+                    });
+                }
+            }
+        }
+        set
+    }
+}
+
+/// The lifted flows' settings of the letter task's augmenter (and of canonicalised
+/// policies): rtol 1e-7, atol 1e-9, warm-started (consecutive samples of a trajectory flow
+/// from nearby points).
+pub fn letter_flow() -> crossym_math::symmetry::transfer::flow::FlowSettings {
+    crossym_math::symmetry::transfer::flow::FlowSettings {
+        rtol: 1e-7,
+        atol: 1e-9,
+        warm_start: true,
+        ..Default::default()
+    }
+}
+
+/// The letter task's augmenter: `M`, `R`, `S` of `order` found in `built`, the lifted
+/// flows integrated at rtol 1e-7 / atol 1e-9 (task-space equivariance ≈ 3e-7 on the
+/// letters, whose tracking error is 4e-5), warm-started along each trajectory.
+pub fn letter_augmenter<'a>(
+    kin: &'a Kinematics,
+    built: &'a [BuiltSymmetry],
+    order: &[String],
+) -> Result<Augmenter<'a>, String> {
+    let CompositionParts {
+        reflection: rho,
+        rotation: rot,
+        scaling: sc,
+    } = composition_parts(built, order)?;
+    let flow = letter_flow();
+    Augmenter::new(
+        kin,
+        LiftedAction::new(kin, rot, flow)?,
+        sc.map(|sc| LiftedAction::new(kin, sc, flow)).transpose()?,
+        rho,
+    )
+}
+
+/// The nominal trajectories of `demo` under each of `conditions`, for the composition
+/// `order` of `built` ([`letter_augmenter`]), in the order given.
+///
+/// Each is the demonstration transformed by eq. 23, as in the augmentation; an infeasible
+/// condition is an error naming its drop reason.
+pub fn nominal_trajectories(
+    kin: &Kinematics,
+    built: &[BuiltSymmetry],
+    order: &[String],
+    demo: &JointTrajectory,
+    conditions: &[Condition],
+) -> Result<Vec<Augmented>, String> {
+    let augmenter = letter_augmenter(kin, built, order)?;
+    let mut out = Vec::with_capacity(conditions.len());
+    for c in conditions {
+        c.validate()?;
+        let deg = c.theta.to_degrees().abs();
+        let grid = GroupGrid {
+            rotation_step_deg: (deg > 1e-9).then_some(deg),
+            scales: vec![c.scale],
+            reflection: c.reflection == -1,
+            max_rotation_deg: Some(deg),
+            conditions: None,
+        };
+        grid.validate()?;
+        let set = augmenter.augment_scale(demo, c.scale, &grid);
+        let same = |a: &Condition| (a.theta - c.theta).abs() < 1e-9 && a.reflection == c.reflection;
+        if let Some(a) = set.trajectories.iter().find(|a| same(&a.condition)) {
+            out.push(Augmented {
+                condition: *c,
+                traj: a.traj.clone(),
+            });
+        } else {
+            let why = set
+                .dropped
+                .iter()
+                .find(|d| same(&d.1))
+                .map(|d| format!("{:?}", d.2))
+                .unwrap_or_else(|| "not produced".into());
+            return Err(format!(
+                "condition (θ = {} rad, λ = {}, σ = {}) is infeasible for demo {}: {why}",
+                c.theta, c.scale, c.reflection, demo.demo
+            ));
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,265 @@
+//! DDS plumbing shared by the node, the mock hardware and the demo: the participant built
+//! from the ROS 2 environment, ROS name expansion, QoS profiles and DDS type names.
+//!
+//! Environment (as `rmw` reads it):
+//! - `ROS_DOMAIN_ID` (0–232, default 0);
+//! - `ROS_LOCALHOST_ONLY=1` (Humble) or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` (Iron+):
+//!   discovery and traffic on the loopback interface only (RustDDS `with_only_networks`);
+//!   `ROS_AUTOMATIC_DISCOVERY_RANGE=OFF` is refused (no static peers here).
+//!
+//! Topic names follow ROS: `/abs`, `rel` (under the node namespace) and `~/priv`
+//! (under `<namespace>/<node>`), mapped to DDS `rt/...` by ros2-client.
+
+use std::net::{IpAddr, Ipv4Addr};
+
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, Topic};
+use ros2_client::{Context, MessageTypeName, Name, NodeName, QosProfile};
+
+use crossym_io::msg::RosMessage;
+
+/// Errors of the DDS layer (setup only).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DdsError {
+    /// A ROS environment variable has a value we cannot use.
+    #[error("environment variable {var}={value:?}: {message}")]
+    Env {
+        /// Variable name.
+        var: &'static str,
+        /// Its value.
+        value: String,
+        /// Why it is refused.
+        message: &'static str,
+    },
+    /// A node or topic name is not a valid ROS name.
+    #[error("invalid ROS name `{name}`: {message}")]
+    Name {
+        /// The name as given.
+        name: String,
+        /// ros2-client's reason.
+        message: String,
+    },
+    /// The DDS participant, node or an endpoint could not be created.
+    #[error("DDS: {what}: {message}")]
+    Create {
+        /// What was being created.
+        what: String,
+        /// The middleware's error text.
+        message: String,
+    },
+}
+
+/// Where discovery may reach.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DiscoveryRange {
+    /// Every interface (DDS default).
+    Subnet,
+    /// Loopback only.
+    Localhost,
+}
+
+/// Domain and discovery range of a participant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DdsSettings {
+    /// DDS domain (0–232).
+    pub domain_id: u16,
+    /// Discovery range.
+    pub range: DiscoveryRange,
+}
+
+impl DdsSettings {
+    /// Reads `ROS_DOMAIN_ID`, `ROS_LOCALHOST_ONLY` and `ROS_AUTOMATIC_DISCOVERY_RANGE`.
+    pub fn from_env() -> Result<Self, DdsError> {
+        Self::from_vars(|k| std::env::var(k).ok())
+    }
+
+    /// As [`DdsSettings::from_env`], reading variables through `get` (testable).
+    pub fn from_vars(get: impl Fn(&str) -> Option<String>) -> Result<Self, DdsError> {
+        let domain_id = match get("ROS_DOMAIN_ID").filter(|v| !v.trim().is_empty()) {
+            None => 0,
+            Some(v) => match v.trim().parse::<u16>() {
+                Ok(d) if d <= 232 => d,
+                _ => {
+                    return Err(DdsError::Env {
+                        var: "ROS_DOMAIN_ID",
+                        value: v,
+                        message: "must be an integer in 0..=232",
+                    })
+                }
+            },
+        };
+        let mut range = DiscoveryRange::Subnet;
+        if let Some(v) = get("ROS_LOCALHOST_ONLY") {
+            match v.trim() {
+                "1" => range = DiscoveryRange::Localhost,
+                "" | "0" => {}
+                _ => {
+                    return Err(DdsError::Env {
+                        var: "ROS_LOCALHOST_ONLY",
+                        value: v,
+                        message: "must be 0 or 1",
+                    })
+                }
+            }
+        }
+        if let Some(v) = get("ROS_AUTOMATIC_DISCOVERY_RANGE") {
+            match v.trim() {
+                "LOCALHOST" => range = DiscoveryRange::Localhost,
+                "" | "SUBNET" | "SYSTEM_DEFAULT" => {}
+                "OFF" => {
+                    return Err(DdsError::Env {
+                        var: "ROS_AUTOMATIC_DISCOVERY_RANGE",
+                        value: v,
+                        message: "OFF (no automatic discovery) is not supported",
+                    })
+                }
+                _ => {
+                    return Err(DdsError::Env {
+                        var: "ROS_AUTOMATIC_DISCOVERY_RANGE",
+                        value: v,
+                        message: "must be SUBNET, LOCALHOST, OFF or SYSTEM_DEFAULT",
+                    })
+                }
+            }
+        }
+        Ok(Self { domain_id, range })
+    }
+
+    /// Creates the ros2-client context (one DDS participant).
+    pub fn context(&self) -> Result<Context, DdsError> {
+        let mut b = DomainParticipantBuilder::new(self.domain_id);
+        if self.range == DiscoveryRange::Localhost {
+            b = b.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);
+        }
+        let dp = b.build().map_err(|e| DdsError::Create {
+            what: format!("participant in domain {}", self.domain_id),
+            message: e.to_string(),
+        })?;
+        Context::from_domain_participant(dp).map_err(|e| DdsError::Create {
+            what: "ROS 2 context".into(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// The node name `namespace`/`name`.
+pub fn node_name(namespace: &str, name: &str) -> Result<NodeName, DdsError> {
+    NodeName::new(namespace, name).map_err(|e| DdsError::Name {
+        name: format!("{namespace}/{name}"),
+        message: format!("{e:?}"),
+    })
+}
+
+/// Expands a ROS topic name (`/abs`, `rel`, `~/priv`) to its absolute form.
+pub fn expand_topic(topic: &str, namespace: &str, node: &str) -> String {
+    let ns = namespace.trim_end_matches('/');
+    if let Some(rest) = topic.strip_prefix("~/") {
+        format!("{ns}/{node}/{rest}")
+    } else if topic.starts_with('/') {
+        topic.to_string()
+    } else {
+        format!("{ns}/{topic}")
+    }
+}
+
+/// The ros2-client [`Name`] of `topic` for a node `name` in `namespace`.
+pub fn topic_name(topic: &str, namespace: &str, node: &str) -> Result<Name, DdsError> {
+    let full = expand_topic(topic, namespace, node);
+    Name::parse(&full).map_err(|e| DdsError::Name {
+        name: full.clone(),
+        message: format!("{e:?}"),
+    })
+}
+
+/// The ros2-client type name of message `M` (`pkg/msg/Type` → `pkg::msg::dds_::Type_`).
+pub fn type_name<M: RosMessage>() -> MessageTypeName {
+    let pkg = M::ROS_TYPE.split('/').next().unwrap_or_default();
+    let ty = M::ROS_TYPE.rsplit('/').next().unwrap_or_default();
+    MessageTypeName::new(pkg, ty)
+}
+
+/// QoS of a sensor stream subscription (best effort matches reliable and best-effort writers).
+pub fn qos_sensor() -> QosProfile {
+    QosProfile::subscription_default().history(ros2_client::qos::History::KeepLast { depth: 5 })
+}
+
+/// Reliable, volatile, keep-last `depth` (commands, status, conditions).
+pub fn qos_reliable(depth: usize) -> QosProfile {
+    QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth })
+}
+
+/// Creates a topic of message type `M` on `node`.
+pub fn create_topic<M: RosMessage>(
+    node: &ros2_client::Node,
+    name: &Name,
+    qos: &QosProfile,
+) -> Result<Topic, DdsError> {
+    node.create_topic(name, type_name::<M>(), qos)
+        .map_err(|e| DdsError::Create {
+            what: format!("topic {name}"),
+            message: format!("{e:?}"),
+        })
+}
+
+/// Creates a publisher of `M` on `topic` (ROS name) for `node`.
+pub fn publisher<M: RosMessage + serde::Serialize>(
+    node: &mut ros2_client::Node,
+    topic: &str,
+    qos: QosProfile,
+) -> Result<ros2_client::Publisher<M>, DdsError> {
+    let name = topic_name(topic, node.namespace(), &node_base_name(node))?;
+    let t = create_topic::<M>(node, &name, &qos)?;
+    node.create_publisher(&t, Some(qos))
+        .map_err(|e| DdsError::Create {
+            what: format!("publisher on {name}"),
+            message: format!("{e:?}"),
+        })
+}
+
+/// Creates a subscription of `M` on `topic` (ROS name) for `node`.
+pub fn subscription<M: RosMessage + serde::de::DeserializeOwned + 'static>(
+    node: &mut ros2_client::Node,
+    topic: &str,
+    qos: QosProfile,
+) -> Result<ros2_client::Subscription<M>, DdsError> {
+    let name = topic_name(topic, node.namespace(), &node_base_name(node))?;
+    let t = create_topic::<M>(node, &name, &qos)?;
+    node.create_subscription(&t, Some(qos))
+        .map_err(|e| DdsError::Create {
+            what: format!("subscription on {name}"),
+            message: format!("{e:?}"),
+        })
+}
+
+fn node_base_name(node: &ros2_client::Node) -> String {
+    let full = node.fully_qualified_name();
+    full.rsplit('/').next().unwrap_or_default().to_string()
+}
+
+/// The current ROS (wall-clock) time (ns since the Unix epoch).
+pub fn wall_time_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
+/// The current ROS (wall-clock) time (s since the Unix epoch).
+pub fn wall_time_s() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
+}
+
+/// Resolves on the first SIGINT or SIGTERM (inside a tokio runtime with signals enabled).
+pub async fn shutdown_signal() -> std::io::Result<()> {
+    use tokio::signal::unix::{signal, SignalKind};
+    let mut int = signal(SignalKind::interrupt())?;
+    let mut term = signal(SignalKind::terminate())?;
+    tokio::select! {
+        _ = int.recv() => {}
+        _ = term.recv() => {}
+    }
+    Ok(())
+}

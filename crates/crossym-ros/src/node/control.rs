@@ -1,0 +1,428 @@
+//! The control thread: the path of one joint state to one command, in one place.
+//!
+//! ```text
+//! UDP → RustDDS event loop ─(reader notification)→ this thread's poll → take
+//!     → NodeCore::on_joint_state (validation) → recorder channel
+//!     → NodeCore::tick (FK, Jacobian, π(q, s), safety QP: allocates, locks, logs nothing)
+//!     → publish ─(writer doorbell)→ RustDDS event loop → UDP
+//! ```
+//!
+//! The subscriptions are registered with a `mio` poll owned by this thread, so a joint state
+//! costs one thread wake-up between DDS and the tick. (Until issue 20 an I/O task read it
+//! from ros2-client's async stream and handed it over through a triple buffer and an
+//! `unpark`: two wake-ups, 46 + 10 µs median at 1 kHz and more at 100 Hz.) Conditions
+//! arrive the same way. With `trigger = "joint_states"` every accepted joint state ticks
+//! once (several read together tick once, on the latest); without one for
+//! `stale_timeout_s` the ticks go on at the period (they command the stale-input stop).
+//! With `trigger = "timer"` the ticks run every `period_s` on the latest inputs.
+//!
+//! Reading a message (deserialisation allocates; the reader locks its cache) happens
+//! between ticks, never inside one. What the operator should read (rejections, accepted
+//! conditions, status transitions) goes to the I/O thread's log as [`ToIo`] events over a
+//! bounded channel that never blocks.
+
+use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::SyncSender;
+use std::sync::Arc;
+use std::thread;
+use std::time::{Duration, Instant};
+
+use mio::{Events, Interest, Poll, Token, Waker};
+
+use super::record::{RecordItem, Recorder};
+use super::stats::{span_us, Histogram, TickStats};
+use super::Endpoints;
+use crate::dds;
+use crossym_control::node::{Command, NodeCore, Rejection, StatusSnapshot, Trigger};
+use crossym_io::msg;
+use crossym_math::symmetry::compose::Condition;
+
+const JOINT_STATES: Token = Token(0);
+const CONDITIONS: Token = Token(1);
+const WAKE: Token = Token(2);
+/// Messages taken from one subscription before the tick is considered again (a flood of
+/// messages cannot starve the tick).
+const MAX_READS: usize = 64;
+
+/// What the control thread tells the I/O thread's log.
+pub(super) enum ToIo {
+    /// A status snapshot (its transitions are logged).
+    Status(StatusSnapshot),
+    /// A joint state was rejected.
+    JointStateRejected(Rejection),
+    /// A condition was rejected; `kept` stays in force.
+    ConditionRejected {
+        /// Why.
+        rejection: Rejection,
+        /// The condition in force.
+        kept: Condition,
+    },
+    /// A new condition was accepted.
+    ConditionAccepted(Condition),
+    /// A message could not be decoded.
+    Undecodable {
+        /// `joint_states` or `symmetry_condition`.
+        topic: &'static str,
+        /// The decoder's error.
+        error: String,
+    },
+}
+
+/// What the control thread shares with the rest of the process.
+pub(super) struct Links {
+    /// Events for the I/O thread's log (never blocks: a full channel drops the event).
+    pub(super) to_io: SyncSender<ToIo>,
+    /// The controlled joint names (for the commands and the status).
+    pub(super) names: Vec<String>,
+    /// The bag recorder, if recording.
+    pub(super) rec: Option<Recorder>,
+    /// Set by the I/O thread on a signal; the control thread then sends its final command.
+    pub(super) stop: Arc<AtomicBool>,
+}
+
+/// The control thread's state (moved into the thread by [`ControlThread::run`]).
+pub(super) struct ControlThread {
+    core: NodeCore,
+    ends: Endpoints,
+    poll: Poll,
+    events: Events,
+    links: Links,
+    /// The condition last accepted (a change is logged once).
+    accepted: Condition,
+    /// Publisher's source stamp → DDS receive, per joint state (µs).
+    dds_in: Histogram,
+    /// DDS receive → taken by this thread, per joint state (µs).
+    to_control: Histogram,
+    /// The tick (µs).
+    tick: Histogram,
+    /// The command publish call (µs).
+    publish: Histogram,
+}
+
+impl ControlThread {
+    /// Registers both subscriptions with a poll of this thread's own; returns the state and
+    /// the waker that interrupts its wait (call it after setting `stop`). Allocates.
+    pub(super) fn new(
+        core: NodeCore,
+        mut ends: Endpoints,
+        links: Links,
+    ) -> io::Result<(Self, Arc<Waker>)> {
+        let poll = Poll::new()?;
+        poll.registry()
+            .register(&mut ends.joint_states, JOINT_STATES, Interest::READABLE)?;
+        poll.registry()
+            .register(&mut ends.conditions, CONDITIONS, Interest::READABLE)?;
+        let waker = Arc::new(Waker::new(poll.registry(), WAKE)?);
+        let accepted = core.condition();
+        Ok((
+            Self {
+                core,
+                ends,
+                poll,
+                events: Events::with_capacity(16),
+                links,
+                accepted,
+                dds_in: Histogram::new(),
+                to_control: Histogram::new(),
+                tick: Histogram::new(),
+                publish: Histogram::new(),
+            },
+            waker,
+        ))
+    }
+
+    /// Reads, ticks and publishes until `stop`; then sends the final zero / hold command and
+    /// returns the statistics.
+    pub(super) fn run(mut self) -> TickStats {
+        let cfg = self.core.config().clone();
+        let period = Duration::from_secs_f64(cfg.period_s);
+        let stale_after = Duration::from_secs_f64(cfg.stale_timeout_s.max(cfg.period_s));
+        let status_period = Duration::from_secs_f64(cfg.status_period_s);
+        let mut cmd = self.core.command();
+        let mut stats = TickStats::default();
+        let mut next = Instant::now() + period;
+        let mut next_status = Instant::now();
+        let mut last_seq = 0u64;
+        // Whatever arrived before the first wait is read first.
+        let mut unread = (true, true);
+        loop {
+            if self.links.stop.load(Ordering::Acquire) {
+                break;
+            }
+            unread = self.read_inputs(unread);
+            let now = Instant::now();
+            let seq = self.core.inputs().joint_state_seq;
+            let due = match cfg.trigger {
+                Trigger::Timer => now >= next,
+                Trigger::JointStates => seq != last_seq || now >= next,
+            };
+            if !due {
+                if !(unread.0 || unread.1) {
+                    unread = self.wait(
+                        next.saturating_duration_since(now),
+                        cfg.trigger == Trigger::Timer,
+                    );
+                }
+                continue;
+            }
+            let t0 = Instant::now();
+            let now_ns = dds::wall_time_ns();
+            let fresh = seq != last_seq;
+            last_seq = seq;
+            let report = self.core.tick(now_ns as f64 * 1e-9, &mut cmd);
+            let us = t0.elapsed().as_secs_f64() * 1e6;
+            self.core.record_tick_time(us);
+            self.tick.record(us);
+            stats.ticks += 1;
+            if report.publish {
+                let sequence = self.core.inputs().command_sequence();
+                let tp = Instant::now();
+                if self.publish_command(&cmd, now_ns, sequence) {
+                    stats.commands += 1;
+                } else {
+                    stats.publish_errors += 1;
+                }
+                self.publish.record(tp.elapsed().as_secs_f64() * 1e6);
+            }
+            next = match cfg.trigger {
+                Trigger::Timer => {
+                    let n = next + period;
+                    if n <= t0 {
+                        t0 + period
+                    } else {
+                        n
+                    }
+                }
+                // A tick per joint state; without one for the stale timeout the ticks go on
+                // at the period (they command the stale-input stop). A fallback at one period
+                // would race the driver's next state and double the commands.
+                Trigger::JointStates if fresh => t0 + stale_after,
+                Trigger::JointStates => t0 + period,
+            };
+            if t0 >= next_status {
+                next_status = t0 + status_period;
+                if !self.publish_status() {
+                    stats.publish_errors += 1;
+                }
+            }
+        }
+        if self.shutdown(&mut cmd) {
+            stats.commands += 1;
+        }
+        stats.median_us = self.tick.quantile(0.5);
+        stats.p99_us = self.tick.quantile(0.99);
+        stats.max_us = self.tick.max_us;
+        stats.dds_in = self.dds_in.stats();
+        stats.to_control = self.to_control.stats();
+        stats.publish = self.publish.stats();
+        stats
+    }
+
+    /// Takes what arrived on the subscriptions flagged in `unread`; returns the flags of
+    /// those not exhausted (more than [`MAX_READS`] waiting).
+    fn read_inputs(&mut self, unread: (bool, bool)) -> (bool, bool) {
+        let mut left = (false, false);
+        if unread.0 {
+            left.0 = true;
+            for _ in 0..MAX_READS {
+                match self.ends.joint_states.take() {
+                    Ok(Some((m, info))) => self.on_joint_state(m, &info),
+                    Ok(None) => {
+                        left.0 = false;
+                        break;
+                    }
+                    Err(e) => self.tell(ToIo::Undecodable {
+                        topic: "joint_states",
+                        error: format!("{e:?}"),
+                    }),
+                }
+            }
+        }
+        if unread.1 {
+            left.1 = true;
+            for _ in 0..MAX_READS {
+                match self.ends.conditions.take() {
+                    Ok(Some((m, _))) => self.on_condition(m),
+                    Ok(None) => {
+                        left.1 = false;
+                        break;
+                    }
+                    Err(e) => self.tell(ToIo::Undecodable {
+                        topic: "symmetry_condition",
+                        error: format!("{e:?}"),
+                    }),
+                }
+            }
+        }
+        left
+    }
+
+    /// Waits for a message, the waker or `timeout`; returns which subscriptions have news.
+    /// epoll counts whole milliseconds (mio rounds a timeout up), so with `precise` (timer
+    /// ticks) the poll waits the whole milliseconds and a sleep the rest: a tick is then not
+    /// late by up to 1 ms; a message arriving in that sleep is read right after the tick.
+    fn wait(&mut self, timeout: Duration, precise: bool) -> (bool, bool) {
+        let poll_for = if precise {
+            Duration::from_millis(timeout.as_millis() as u64)
+        } else {
+            timeout
+        };
+        if poll_for.is_zero() {
+            thread::sleep(timeout);
+            return (false, false);
+        }
+        if let Err(e) = self.poll.poll(&mut self.events, Some(poll_for)) {
+            if e.kind() != io::ErrorKind::Interrupted {
+                // Not expected; never spin on it.
+                thread::sleep(poll_for.min(Duration::from_millis(1)));
+            }
+            return (true, true);
+        }
+        let mut news = (false, false);
+        for e in self.events.iter() {
+            match e.token() {
+                JOINT_STATES => news.0 = true,
+                CONDITIONS => news.1 = true,
+                _ => {}
+            }
+        }
+        news
+    }
+
+    /// One joint state: its DDS hops recorded from the `info` stamps, validated, recorded.
+    fn on_joint_state(&mut self, m: msg::JointState, info: &ros2_client::MessageInfo) {
+        let now_ns = dds::wall_time_ns();
+        if let Some(rx) = info.received_timestamp() {
+            let rx = rx.to_nanos();
+            if let Some(tx) = info.source_timestamp() {
+                self.dds_in.record(span_us(tx.to_nanos(), rx));
+            }
+            self.to_control.record(span_us(rx, now_ns as i64));
+        }
+        if let Err(r) = self.core.on_joint_state(&m, now_ns as f64 * 1e-9) {
+            self.tell(ToIo::JointStateRejected(r));
+        }
+        // Recorded before the tick, so the bag keeps each joint state ahead of the command
+        // computed from it.
+        if let Some(r) = &self.links.rec {
+            r.send(RecordItem::JointState(
+                m,
+                now_ns,
+                self.core.inputs().joint_state_seq as u32,
+            ));
+        }
+    }
+
+    /// One symmetry condition: validated (a change or a rejection told to the log),
+    /// recorded.
+    fn on_condition(&mut self, m: msg::SymmetryCondition) {
+        match self.core.on_condition(&m) {
+            Ok(()) => {
+                let c = self.core.condition();
+                if c != self.accepted {
+                    self.accepted = c;
+                    self.tell(ToIo::ConditionAccepted(c));
+                }
+            }
+            Err(rejection) => self.tell(ToIo::ConditionRejected {
+                rejection,
+                kept: self.accepted,
+            }),
+        }
+        if let Some(r) = &self.links.rec {
+            r.send(RecordItem::Condition(
+                m,
+                dds::wall_time_ns(),
+                self.core.inputs().condition_seq as u32,
+            ));
+        }
+    }
+
+    /// Sends an event to the I/O thread's log (dropped when its channel is full).
+    fn tell(&self, e: ToIo) {
+        let _ = self.links.to_io.try_send(e);
+    }
+
+    /// Publishes `cmd` (a copy to the recorder with the tick time and input `sequence`).
+    fn publish_command(&self, cmd: &Command, now_ns: u64, sequence: u32) -> bool {
+        let rec = self.links.rec.as_ref().map(|r| (r, now_ns, sequence));
+        self.ends.command.publish(
+            cmd,
+            &self.links.names,
+            self.core.config().period_s,
+            self.core.config().trajectory_start_point,
+            rec,
+        )
+    }
+
+    /// Publishes `~/status` (and hands the snapshot to the log); false on a publish error.
+    fn publish_status(&self) -> bool {
+        let stamp_ns = dds::wall_time_ns();
+        let snap = self.core.status();
+        self.tell(ToIo::Status(snap));
+        let m = snap.to_msg(
+            msg::Time::from_secs_f64(stamp_ns as f64 * 1e-9),
+            &self.links.names,
+        );
+        if let Some(r) = &self.links.rec {
+            r.send(RecordItem::Status(m.clone(), stamp_ns));
+        }
+        self.ends.status.publish(m).is_ok()
+    }
+
+    /// The final zero / hold command (ForwardCommandController would repeat the last one
+    /// forever) and a `SHUTDOWN` status; waits for reliable delivery. True when a command
+    /// was published.
+    fn shutdown(&mut self, cmd: &mut Command) -> bool {
+        let sequence =
+            self.core.inputs().command_sequence() | crossym_control::node::SHUTDOWN_SEQUENCE_BIT;
+        let sent = self.core.shutdown_command(cmd)
+            && self.publish_command(cmd, dds::wall_time_ns(), sequence);
+        let stamp = msg::Time::from_secs_f64(dds::wall_time_s());
+        let _ = self
+            .ends
+            .status
+            .publish(self.core.status().to_msg(stamp, &self.links.names));
+        // Let reliable writers deliver (and repair) the last samples before they are dropped.
+        thread::sleep(Duration::from_millis(300));
+        sent
+    }
+}
+
+/// The command writer for the configured output mode.
+pub(super) enum CommandPublisher {
+    Array(ros2_client::Publisher<msg::Float64MultiArray>),
+    Trajectory(ros2_client::Publisher<msg::JointTrajectory>),
+}
+
+impl CommandPublisher {
+    /// Publishes `cmd` (and hands a copy to the recorder with the tick time and inputs).
+    pub(super) fn publish(
+        &self,
+        cmd: &Command,
+        names: &[String],
+        dt: f64,
+        start_point: bool,
+        rec: Option<(&Recorder, u64, u32)>,
+    ) -> bool {
+        match self {
+            CommandPublisher::Array(p) => {
+                let m = cmd.to_float64_multi_array();
+                if let Some((r, t, q)) = rec {
+                    r.send(RecordItem::Array(m.clone(), t, q));
+                }
+                p.publish(m).is_ok()
+            }
+            CommandPublisher::Trajectory(p) => {
+                // Stamp 0: the controller starts the trajectory when it receives it (a stamp
+                // from this machine's clock would shift it by any offset between the clocks).
+                let m = cmd.to_joint_trajectory(names, dt, start_point);
+                if let Some((r, t, q)) = rec {
+                    r.send(RecordItem::Trajectory(m.clone(), t, q));
+                }
+                p.publish(m).is_ok()
+            }
+        }
+    }
+}

@@ -1,0 +1,416 @@
+//! The ROS 2 node process: [`NodeCore`] over DDS (ros2-client).
+//!
+//! Threads:
+//! - **Control** (`control.rs`, a dedicated thread): owns both subscriptions
+//!   (`/joint_states` best effort, `~/symmetry_condition` reliable) through a `mio` poll,
+//!   validates each message into the [`NodeCore`], and every `period_s` (or on every
+//!   accepted joint state with `trigger = "joint_states"`) runs [`NodeCore::tick`] —
+//!   kinematics, policy `π(q, s)`, safety QP — which allocates, locks and logs nothing;
+//!   then it publishes the command, and `~/status` every `status_period_s`. The path of one
+//!   joint state to one command reads in that one file.
+//! - **I/O** (`io.rs`, tokio, one worker): the ros2-client spinner (graph, parameter
+//!   services), the SIGINT/SIGTERM handler and the node's log ([`NodeLog`]: console and
+//!   `/rosout`): a startup summary, then what the control thread reports (rejections,
+//!   condition changes, status transitions).
+//! - **Bag** (`record.rs`, with `--record`): writes what the control thread hands it.
+//! - On SIGINT/SIGTERM the control thread sends one final zero-velocity / hold command and
+//!   a `SHUTDOWN` status, lets reliable delivery drain, and the process exits 0; the
+//!   shutdown line reports the tick and the hops of the joint state → command path
+//!   (`stats.rs`).
+
+mod control;
+mod io;
+mod record;
+mod stats;
+
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread;
+use std::time::Duration;
+
+use ros2_client::{NodeOptions, ParameterValue};
+
+use self::control::{CommandPublisher, ControlThread, Links};
+use self::io::IoSide;
+use self::record::{start_recorder, Recorder};
+pub use self::stats::{HopStats, TickStats};
+use super::dds::{self, DdsError, DdsSettings};
+use super::idle_poll::IdlePoll;
+use super::log::{NodeLog, Severity, StatusWatch};
+use crossym_control::node::{InputGate, NodeCore, OutputMode};
+use crossym_io::bag::BagError;
+use crossym_io::msg;
+
+/// Errors that stop the node process.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NodeRunError {
+    /// DDS setup failed.
+    #[error(transparent)]
+    Dds(#[from] DdsError),
+    /// The async runtime or a thread could not start.
+    #[error("runtime: {message}")]
+    Runtime {
+        /// What failed.
+        message: String,
+    },
+}
+
+/// Runs the node until SIGINT/SIGTERM (or `stop` is set); returns the tick statistics.
+///
+/// Setup (recorder, DDS node and endpoints, I/O runtime, log) allocates; then the control
+/// thread (`ControlThread::run`) and the I/O loop (`IoSide::serve`) run until a signal,
+/// and `finish` joins them and writes the shutdown summary.
+pub fn run(
+    core: NodeCore,
+    settings: DdsSettings,
+    stop: Option<Arc<AtomicBool>>,
+    record: Option<&Path>,
+) -> Result<TickStats, NodeRunError> {
+    let cfg = core.config().clone();
+    let recorder = match record {
+        Some(dir) => Some(start_recorder(dir, &cfg)?),
+        None => None,
+    };
+    let ctx = settings.context()?;
+    let mut node = ctx
+        .new_node(
+            dds::node_name(&cfg.namespace, &cfg.name)?,
+            node_options(&core),
+        )
+        .map_err(|e| DdsError::Create {
+            what: format!("node {}/{}", cfg.namespace, cfg.name),
+            message: format!("{e:?}"),
+        })?;
+    let ends = Endpoints::create(&mut node, &cfg)?;
+    let logger = node.logging_handle();
+    let spinner = node.spinner().map_err(|e| DdsError::Create {
+        what: "spinner".into(),
+        message: format!("{e:?}"),
+    })?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .thread_name("crossym-io")
+        .build()
+        .map_err(|e| NodeRunError::Runtime {
+            message: e.to_string(),
+        })?;
+
+    let stop = stop.unwrap_or_else(|| Arc::new(AtomicBool::new(false)));
+    let gate = core.input_gate();
+    let names = core.joint_names().to_vec();
+    let mut log = NodeLog::new(
+        &cfg.name,
+        Some(logger),
+        cfg.log_level,
+        Duration::from_secs(1),
+    );
+    for line in startup_summary(&core, &gate, &settings, record) {
+        log.log(Severity::Info, &line);
+    }
+    let (to_io, from_control) = std::sync::mpsc::sync_channel(256);
+    let links = Links {
+        to_io,
+        names: names.clone(),
+        rec: recorder.as_ref().map(|r| r.0.clone()),
+        stop: stop.clone(),
+    };
+    let (control, waker) =
+        ControlThread::new(core, ends, links).map_err(|e| NodeRunError::Runtime {
+            message: format!("control thread poll: {e}"),
+        })?;
+    let control = thread::Builder::new()
+        .name("crossym-control".into())
+        .spawn(move || control.run())
+        .map_err(|e| NodeRunError::Runtime {
+            message: format!("control thread: {e}"),
+        })?;
+    // Held until the node stops (the kernel drops the CPU latency request on close).
+    let (_cpu_latency, idle_poll) = match &cfg.realtime {
+        Some(rt) => apply_realtime(rt, &control, &mut log),
+        None => (None, None),
+    };
+
+    let mut io = IoSide {
+        gate,
+        names,
+        watch: StatusWatch::default(),
+        from_control,
+        log,
+    };
+    runtime.block_on(io.serve(spinner, &stop));
+    stop.store(true, Ordering::Release);
+    if let Err(e) = waker.wake() {
+        // The control thread still sees `stop` at its next tick or timeout.
+        io.log.log(
+            Severity::Warn,
+            &format!("could not wake the control thread: {e}"),
+        );
+    }
+    let stats = finish(control, recorder, io);
+    drop(idle_poll);
+    drop(node);
+    runtime.shutdown_timeout(Duration::from_millis(200));
+    stats
+}
+
+/// The node's options: read-only parameters describing its configuration, rosout and the
+/// parameter services.
+fn node_options(core: &NodeCore) -> NodeOptions {
+    let cfg = core.config();
+    let mut params: Vec<(&str, ParameterValue)> = vec![
+        ("period_s", ParameterValue::Double(cfg.period_s)),
+        (
+            "stale_timeout_s",
+            ParameterValue::Double(cfg.stale_timeout_s),
+        ),
+        ("check_stamps", ParameterValue::Boolean(cfg.check_stamps)),
+        (
+            "output",
+            ParameterValue::String(format!("{:?}", cfg.output).to_lowercase()),
+        ),
+        (
+            "trigger",
+            ParameterValue::String(format!("{:?}", cfg.trigger).to_lowercase()),
+        ),
+        (
+            "joint_names",
+            ParameterValue::StringArray(core.joint_names().to_vec()),
+        ),
+        (
+            "topics.command",
+            ParameterValue::String(cfg.topics.command.clone()),
+        ),
+    ];
+    if let Some(p) = &cfg.policy {
+        params.push(("policy", ParameterValue::String(p.display().to_string())));
+    }
+    let mut options = NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(true);
+    for (k, v) in &params {
+        options = options.declare_parameter(k, v.clone());
+    }
+    // Parameters are read-only at runtime: the tick's buffers and the QP are set up once.
+    let fixed: Vec<(String, ParameterValue)> = params
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    options.parameter_validator(Box::new(move |name, value| {
+        match fixed.iter().find(|(k, _)| k == name) {
+            Some((_, v)) if v == value => Ok(()),
+            _ => Err(format!(
+                "`{name}` is read-only at runtime: set it in the TOML config or on the command line"
+            )),
+        }
+    }))
+}
+
+/// The node's topics: two inputs, the command and the status.
+struct Endpoints {
+    joint_states: ros2_client::Subscription<msg::JointState>,
+    conditions: ros2_client::Subscription<msg::SymmetryCondition>,
+    command: CommandPublisher,
+    status: ros2_client::Publisher<msg::Status>,
+}
+
+impl Endpoints {
+    /// Joint states best effort (sensor QoS), everything else reliable (depth 10).
+    fn create(
+        node: &mut ros2_client::Node,
+        cfg: &crossym_control::NodeConfig,
+    ) -> Result<Self, DdsError> {
+        let command = match cfg.output {
+            OutputMode::Velocity | OutputMode::Position => {
+                CommandPublisher::Array(dds::publisher::<msg::Float64MultiArray>(
+                    node,
+                    &cfg.topics.command,
+                    dds::qos_reliable(10),
+                )?)
+            }
+            OutputMode::Trajectory => {
+                CommandPublisher::Trajectory(dds::publisher::<msg::JointTrajectory>(
+                    node,
+                    &cfg.topics.command,
+                    dds::qos_reliable(10),
+                )?)
+            }
+        };
+        Ok(Self {
+            joint_states: dds::subscription::<msg::JointState>(
+                node,
+                &cfg.topics.joint_states,
+                dds::qos_sensor(),
+            )?,
+            conditions: dds::subscription::<msg::SymmetryCondition>(
+                node,
+                &cfg.topics.symmetry_condition,
+                dds::qos_reliable(10),
+            )?,
+            command,
+            status: dds::publisher::<msg::Status>(node, &cfg.topics.status, dds::qos_reliable(10))?,
+        })
+    }
+}
+
+/// Applies `[node] realtime` to the control thread (and the DDS threads, the memory, the
+/// CPU latency, the idle pollers) and logs each outcome; returns the CPU latency request
+/// and the pollers, to hold while the node runs.
+fn apply_realtime(
+    rt: &crossym_control::realtime::RealtimeConfig,
+    control: &thread::JoinHandle<TickStats>,
+    log: &mut NodeLog,
+) -> (
+    Option<crossym_control::realtime::CpuLatencyRequest>,
+    Option<IdlePoll>,
+) {
+    use crossym_control::realtime;
+    use std::os::unix::thread::JoinHandleExt;
+    let mut outcomes = realtime::apply(rt, control.as_pthread_t());
+    let mut held = None;
+    if let Some(us) = rt.cpu_latency_us {
+        let (request, outcome) = realtime::request_cpu_latency(us);
+        held = request;
+        outcomes.push(outcome);
+    }
+    let mut pollers = None;
+    if rt.idle_poll {
+        let (p, outcome) = IdlePoll::start();
+        pollers = p;
+        outcomes.push(outcome);
+    }
+    for o in outcomes {
+        let severity = if o.is_refused() {
+            Severity::Warn
+        } else {
+            Severity::Info
+        };
+        log.log(severity, &o.to_string());
+    }
+    (held, pollers)
+}
+
+/// Joins the control thread (which sent the final command) and the recorder, logs the
+/// last events and the shutdown summary with the hops of the joint state → command path.
+fn finish(
+    control: thread::JoinHandle<TickStats>,
+    recorder: Option<(Recorder, thread::JoinHandle<Result<u64, BagError>>)>,
+    mut io: IoSide,
+) -> Result<TickStats, NodeRunError> {
+    let mut stats = control.join().map_err(|_| NodeRunError::Runtime {
+        message: "control thread panicked".into(),
+    })?;
+    if let Some((r, handle)) = recorder {
+        stats.bag_dropped = r.dropped.load(Ordering::Relaxed);
+        drop(r);
+        stats.bag_messages = handle
+            .join()
+            .map_err(|_| NodeRunError::Runtime {
+                message: "bag thread panicked".into(),
+            })?
+            .map_err(|e| NodeRunError::Runtime {
+                message: format!("recording: {e}"),
+            })?;
+    }
+    io.drain();
+    io.log.flush_suppressed();
+    io.log.log(
+        Severity::Info,
+        &format!(
+            "stopped: {} ticks, {} commands, {} publish errors; tick median {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+            stats.ticks, stats.commands, stats.publish_errors, stats.median_us, stats.p99_us, stats.max_us
+        ),
+    );
+    if stats.dds_in.count + stats.to_control.count > 0 {
+        io.log.log(
+            Severity::Info,
+            &format!(
+                "joint state → command hops: DDS in (publisher → this node) {}; DDS receive → control thread {}; tick median {:.0} µs, p99 {:.0} µs, max {:.0} µs; publish call {}",
+                stats.dds_in, stats.to_control, stats.median_us, stats.p99_us, stats.max_us, stats.publish
+            ),
+        );
+    }
+    Ok(stats)
+}
+
+/// The node's startup lines: robot, policy and conditions, topics with QoS, output and
+/// rate, safety settings (what an operator checks first).
+fn startup_summary(
+    core: &NodeCore,
+    gate: &InputGate,
+    settings: &DdsSettings,
+    record: Option<&Path>,
+) -> Vec<String> {
+    let cfg = core.config();
+    let kin = core.kinematics();
+    let topic = |t: &str| dds::expand_topic(t, &cfg.namespace, &cfg.name);
+    let chains: Vec<String> = kin
+        .chains()
+        .iter()
+        .map(|c| format!("{} ({} joints, {} → {})", c.name, c.dof(), c.base, c.tip))
+        .collect();
+    let mut lines = vec![
+        format!(
+            "robot `{}`: {} controlled joints in {}",
+            kin.robot,
+            kin.dof(),
+            chains.join(", ")
+        ),
+        format!(
+            "policy {}; conditions accepted: {}",
+            cfg.policy
+                .as_ref()
+                .map_or("(none)".into(), |p| p.display().to_string()),
+            match (gate.domain(), gate.checks_feasibility()) {
+                (_, true) => "any whose lifted flows are feasible from the current joint state \
+                              (canonicalised policy)"
+                    .to_string(),
+                (Some(d), false) => format!("the trained box, {}", d.describe()),
+                (None, false) if core.policy().task_head().is_some() => {
+                    "any valid (task-space head of the whole group: equivariant in task space \
+                     wherever the arms reach the drawing)"
+                        .to_string()
+                }
+                (None, false) => {
+                    "any valid (accept_untrained_conditions, or no training record)".to_string()
+                }
+            }
+        ),
+        format!(
+            "topics: in {} (JointState, best effort, keep last 5), {} (SymmetryCondition, reliable, keep last 10); out {} ({}, reliable, keep last 10), {} (Status every {} s, reliable, keep last 10); DDS domain {}",
+            topic(&cfg.topics.joint_states),
+            topic(&cfg.topics.symmetry_condition),
+            topic(&cfg.topics.command),
+            match cfg.output {
+                OutputMode::Trajectory => "JointTrajectory",
+                _ => "Float64MultiArray",
+            },
+            topic(&cfg.topics.status),
+            cfg.status_period_s,
+            settings.domain_id
+        ),
+        format!(
+            "output {} at {:.0} Hz (period {} s, trigger {}), joint states stale after {} s",
+            format!("{:?}", cfg.output).to_lowercase(),
+            1.0 / cfg.period_s,
+            cfg.period_s,
+            format!("{:?}", cfg.trigger).to_lowercase(),
+            cfg.stale_timeout_s
+        ),
+        format!(
+            "safety: QP filter on position, velocity and acceleration limits (margin {} rad, latency {} s, state delay {} s), end-effector distance {}",
+            cfg.safety.margin,
+            cfg.safety.latency_s.unwrap_or(cfg.period_s),
+            cfg.safety.state_delay_s,
+            cfg.safety
+                .min_ee_distance
+                .map_or("unbounded".into(), |d| format!("≥ {d} m"))
+        ),
+    ];
+    if let Some(dir) = record {
+        lines.push(format!("recording to {}", dir.display()));
+    }
+    lines
+}

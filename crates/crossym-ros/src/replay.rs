@@ -1,0 +1,150 @@
+//! Offline replay: feeds a recorded run's inputs through the node's logic without DDS and
+//! compares the commands it computes with the recorded ones.
+//!
+//! Joint states and conditions go through an [`crossym_control::InputGate`] at their log times
+//! (the node records the receipt time it validated them with), producing the same sequence
+//! of input snapshots the node's I/O side produced. Each recorded command names, in its
+//! MCAP `sequence`, the snapshot its tick used ([`crossym_control::Inputs::command_sequence`]);
+//! the tick is re-run at the command's log time (the tick's clock) and the outputs compared
+//! per joint; the final shutdown command (sequence bit 31) is recomputed as such. With the same policy and config the result is bit-identical.
+
+use std::collections::VecDeque;
+
+use crossym_control::node::{Inputs, SHUTDOWN_SEQUENCE_BIT};
+use crossym_control::{NodeCore, OutputMode};
+use crossym_io::bag::{Bag, BagError};
+use crossym_io::msg;
+
+/// Topics of the node being replayed (absolute names).
+#[derive(Debug, Clone)]
+pub struct ReplayTopics {
+    /// Joint states.
+    pub joint_states: String,
+    /// Conditions.
+    pub condition: String,
+    /// Commands.
+    pub command: String,
+}
+
+impl ReplayTopics {
+    /// The absolute topic names of a node configured by `n`.
+    pub fn for_node(n: &crossym_control::NodeConfig) -> Self {
+        let name = |t: &str| crate::dds::expand_topic(t, &n.namespace, &n.name);
+        Self {
+            joint_states: name(&n.topics.joint_states),
+            condition: name(&n.topics.symmetry_condition),
+            command: name(&n.topics.command),
+        }
+    }
+}
+
+/// Outcome of a replay.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayReport {
+    /// Joint-state and condition messages fed (count).
+    pub inputs: usize,
+    /// Commands recomputed and compared (count).
+    pub commands: usize,
+    /// Commands whose input snapshot was not found (count).
+    pub unmatched: usize,
+    /// Largest |recorded − recomputed| per joint (rad/s or rad).
+    pub max_abs_deviation: Vec<f64>,
+}
+
+impl ReplayReport {
+    /// The largest deviation over all joints.
+    pub fn max(&self) -> f64 {
+        self.max_abs_deviation.iter().copied().fold(0.0, f64::max)
+    }
+}
+
+/// Replays `bag` through `core` (built from the same config and policy as the recording).
+pub fn replay(
+    bag: &Bag,
+    core: &mut NodeCore,
+    topics: &ReplayTopics,
+) -> Result<ReplayReport, BagError> {
+    let missing = |t: &str| BagError::NotRos2 {
+        path: bag.path.clone(),
+        message: format!("no topic {t} in the bag"),
+    };
+    let js = bag
+        .topic(&topics.joint_states)
+        .ok_or_else(|| missing(&topics.joint_states))?;
+    let cmd_topic = bag
+        .topic(&topics.command)
+        .ok_or_else(|| missing(&topics.command))?;
+    let cond = bag.topic(&topics.condition);
+    let n = core.joint_names().len();
+    let mut gate = core.input_gate();
+    let mut history: VecDeque<Inputs> = VecDeque::new();
+    history.push_back(gate.inputs().clone());
+    let mut cmd = core.command();
+    let mut report = ReplayReport {
+        inputs: 0,
+        commands: 0,
+        unmatched: 0,
+        max_abs_deviation: vec![0.0; n],
+    };
+    let mode = core.config().output;
+    for (i, m) in bag.messages.iter().enumerate() {
+        let now = m.log_ns as f64 * 1e-9;
+        if m.topic == js {
+            let s: msg::JointState = bag.decode(i)?;
+            let _ = gate.on_joint_state(&s, now);
+        } else if Some(m.topic) == cond {
+            let s: msg::SymmetryCondition = bag.decode(i)?;
+            let _ = gate.on_condition(&s);
+        } else if m.topic == cmd_topic {
+            let recorded: Vec<f64> = match mode {
+                OutputMode::Velocity | OutputMode::Position => {
+                    bag.decode::<msg::Float64MultiArray>(i)?.data
+                }
+                OutputMode::Trajectory => bag
+                    .decode::<msg::JointTrajectory>(i)?
+                    .points
+                    .last()
+                    .map(|p| p.positions.clone())
+                    .unwrap_or_default(),
+            };
+            let shutdown = m.sequence & SHUTDOWN_SEQUENCE_BIT != 0;
+            let seq = m.sequence & !SHUTDOWN_SEQUENCE_BIT;
+            let Some(k) = history.iter().rposition(|s| s.command_sequence() == seq) else {
+                report.unmatched += 1;
+                continue;
+            };
+            core.load_inputs(&history[k]);
+            history.drain(..k);
+            if shutdown {
+                core.shutdown_command(&mut cmd);
+            } else {
+                core.tick(now, &mut cmd);
+            }
+            report.commands += 1;
+            let data = cmd.data();
+            if recorded.len() != n {
+                return Err(BagError::Decode {
+                    path: bag.path.clone(),
+                    topic: topics.command.clone(),
+                    ros_type: bag.topics[cmd_topic].ros_type.clone(),
+                    index: i,
+                    message: format!("{} values, the node controls {n} joints", recorded.len()),
+                });
+            }
+            for j in 0..n {
+                let d = (recorded[j] - data[j]).abs();
+                let d = if d.is_nan() { f64::INFINITY } else { d };
+                report.max_abs_deviation[j] = report.max_abs_deviation[j].max(d);
+            }
+            continue;
+        } else {
+            continue;
+        }
+        report.inputs += 1;
+        history.push_back(gate.inputs().clone());
+        if history.len() > 4096 {
+            history.pop_front();
+        }
+    }
+    Ok(report)
+}

@@ -1,0 +1,148 @@
+//! The mock hardware as a DDS process: subscribes the command topic and the reset topic,
+//! steps [`MockHardware`] at `rate_hz` and publishes `sensor_msgs/JointState` with the full
+//! joint list. Stops on SIGINT/SIGTERM and writes its summary (JSON) if asked.
+
+use std::path::Path;
+use std::time::Duration;
+
+use ros2_client::NodeOptions;
+
+use super::{MockHardware, MockHwConfig, MockHwSummary};
+use crate::dds::{self, DdsError, DdsSettings};
+use crate::node::NodeRunError;
+use crossym_control::OutputMode;
+use crossym_io::msg;
+
+/// Runs `hw` over DDS until SIGINT/SIGTERM; writes the summary to `summary_path` (JSON).
+pub fn run(
+    mut hw: MockHardware,
+    cfg: &MockHwConfig,
+    command_topic: &str,
+    mode: OutputMode,
+    settings: DdsSettings,
+    summary_path: Option<&Path>,
+) -> Result<MockHwSummary, NodeRunError> {
+    let ctx = settings.context()?;
+    let mut node = ctx
+        .new_node(
+            dds::node_name("/", &cfg.name)?,
+            NodeOptions::new().enable_rosout(true),
+        )
+        .map_err(|e| DdsError::Create {
+            what: format!("node {}", cfg.name),
+            message: format!("{e:?}"),
+        })?;
+    let js_pub = dds::publisher::<msg::JointState>(
+        &mut node,
+        &cfg.joint_states_topic,
+        dds::qos_reliable(10),
+    )?;
+    let reset_sub = dds::subscription::<msg::Float64MultiArray>(
+        &mut node,
+        &cfg.reset_topic,
+        dds::qos_reliable(10),
+    )?;
+    enum Cmd {
+        Array(ros2_client::Subscription<msg::Float64MultiArray>),
+        Traj(ros2_client::Subscription<msg::JointTrajectory>),
+    }
+    let cmd_sub = match mode {
+        OutputMode::Velocity | OutputMode::Position => Cmd::Array(dds::subscription(
+            &mut node,
+            command_topic,
+            dds::qos_reliable(10),
+        )?),
+        OutputMode::Trajectory => Cmd::Traj(dds::subscription(
+            &mut node,
+            command_topic,
+            dds::qos_reliable(10),
+        )?),
+    };
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| NodeRunError::Runtime {
+            message: e.to_string(),
+        })?;
+    let dt = 1.0 / cfg.rate_hz;
+    eprintln!(
+        "mock_hw: {} joints ({} controlled, {:?} commands on {}), {} Hz, publishing {}",
+        hw.names.len(),
+        hw.summary().max_abs_velocity.len(),
+        mode,
+        dds::expand_topic(command_topic, "/", &cfg.name),
+        cfg.rate_hz,
+        cfg.joint_states_topic
+    );
+    runtime.block_on(async {
+        let signals = dds::shutdown_signal();
+        tokio::pin!(signals);
+        let mut timer = tokio::time::interval(Duration::from_secs_f64(dt));
+        timer.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        let mut positions = Vec::new();
+        let mut names = Vec::new();
+        loop {
+            tokio::select! {
+                _ = &mut signals => break,
+                _ = timer.tick() => {
+                    match &cmd_sub {
+                        Cmd::Array(s) => loop {
+                            match s.take() {
+                                Ok(Some((m, _))) => { hw.command(&m.data); }
+                                Ok(None) => break,
+                                Err(e) => { eprintln!("mock_hw: undecodable command: {e:?}"); break; }
+                            }
+                        },
+                        Cmd::Traj(s) => loop {
+                            match s.take() {
+                                Ok(Some((m, _))) => {
+                                    let p = m.points.last().map(|p| p.positions.as_slice()).unwrap_or(&[]);
+                                    hw.command(p);
+                                }
+                                Ok(None) => break,
+                                Err(e) => { eprintln!("mock_hw: undecodable command: {e:?}"); break; }
+                            }
+                        },
+                    }
+                    while let Ok(Some((m, _))) = reset_sub.take() {
+                        if !hw.reset(&m.data) {
+                            eprintln!("mock_hw: ignored reset with {} values", m.data.len());
+                        }
+                    }
+                    hw.step(dt);
+                    if hw.joint_state(&mut names, &mut positions) {
+                        let m = msg::JointState {
+                            header: msg::Header {
+                                stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
+                                frame_id: String::new(),
+                            },
+                            name: names.clone(),
+                            position: positions.clone(),
+                            velocity: Vec::new(),
+                            effort: Vec::new(),
+                        };
+                        if let Err(e) = js_pub.publish(m) {
+                            eprintln!("mock_hw: publish failed: {e:?}");
+                        }
+                    }
+                }
+            }
+        }
+        Ok::<(), NodeRunError>(())
+    })?;
+    let summary = hw.summary().clone();
+    eprintln!(
+        "mock_hw: stopped after {:.2} s: {} commands, {} limit violations, {} faulty joint states",
+        hw.time_s(),
+        summary.commands_received,
+        summary.violation_count,
+        summary.joint_states_faulted
+    );
+    if let Some(p) = summary_path {
+        let text = serde_json::to_string_pretty(&summary).unwrap_or_default();
+        std::fs::write(p, text).map_err(|e| NodeRunError::Runtime {
+            message: format!("writing {}: {e}", p.display()),
+        })?;
+    }
+    Ok(summary)
+}
