@@ -1,0 +1,745 @@
+//! [`NodeCore`]: the control tick `π(q, s)` → safety filter → command, stale-input stop,
+//! tracking of position commands, status; allocation-free after construction.
+
+use crossym_io::msg;
+use crossym_learn::policy::{AnyPolicy, AnyWorkspace};
+use crossym_math::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
+use crossym_math::symmetry::compose::Condition;
+
+use super::command::Command;
+use super::config::validate_tracking;
+use super::config::NodeConfig;
+use super::config::OutputMode;
+use super::error::NodeError;
+use super::feasibility::feasibility;
+use super::gate::InputGate;
+use super::gate::Inputs;
+use super::rejection::Rejection;
+use super::status::StatusCode;
+use super::status::StatusSnapshot;
+use super::status::TickReport;
+use crate::safety::history::{CommandHistory, CommandWindow};
+use crate::safety::{Anchor, Barrier, SafetyFilter, SafetySettings, SafetyStatus};
+
+/// Replaces the policy's output in [`NodeCore::tick`] (fault campaigns): called with the
+/// tick count, the measured `q` and the policy's velocity, which it may overwrite.
+pub type PolicyOverride = Box<dyn FnMut(u64, &[f64], &mut [f64]) + Send>;
+
+/// The node's logic: latest inputs, the control tick, the status. See the module docs.
+pub struct NodeCore {
+    cfg: NodeConfig,
+    kin: Kinematics,
+    kws: KinematicsWorkspace,
+    policy: AnyPolicy,
+    pws: AnyWorkspace,
+    filter: SafetyFilter,
+    limits: Vec<JointLimits>,
+    n: usize,
+    gate: InputGate,
+    // End-effector distance barrier (two chains, same task dimension), if configured.
+    min_ee_distance: Option<f64>,
+    barrier_grad: Vec<f64>,
+    v_policy: Vec<f64>,
+    v_safe: Vec<f64>,
+    // Last commanded position (position / trajectory modes: the anchor of the next command).
+    q_hold: Vec<f64>,
+    has_hold: bool,
+    // The last command's velocities (the start of the next trajectory segment).
+    v_last: Vec<f64>,
+    // Commanded positions with their times, and the hull of those the robot may follow.
+    pos_history: CommandHistory,
+    pos_window: CommandWindow,
+    unbounded: Vec<f64>,
+    zeros: Vec<f64>,
+    policy_override: Option<PolicyOverride>,
+    // Position modes: times of the last `max_restarts + 1` restarts (ring), the hold after
+    // the robot was found not following, and the tracking error's watch.
+    restart_times: Vec<f64>,
+    restart_head: usize,
+    // The joint state the last tick saw (jump detection).
+    prev_meas_q: Vec<f64>,
+    prev_meas_time_s: f64,
+    prev_meas_seq: u64,
+    cmd_speed: Vec<f64>,
+    halted: bool,
+    halted_condition_seq: u64,
+    tracking_high_since: Option<f64>,
+    restarts: u64,
+    not_following_ticks: u64,
+    tracking_warning_ticks: u64,
+    tracking_error: f64,
+    // Status.
+    code: StatusCode,
+    ticks: u64,
+    stale_ticks: u64,
+    fallback_ticks: u64,
+    nonfinite_ticks: u64,
+    infeasible_ticks: u64,
+    active: u32,
+    age_s: f64,
+    tick_time_us: f64,
+    tick_time_max_us: f64,
+}
+
+impl NodeCore {
+    /// Builds the node for `kin`'s controlled joints; the safety filter's `dt` is set to
+    /// `cfg.period_s`. The policy must have `kin.dof()` joints (and, if it names them,
+    /// the same names in the same order). With `safety.min_ee_distance`, the robot must
+    /// have exactly two chains of the same task dimension (the two end-effectors).
+    ///
+    /// A policy whose sidecar records a composition is canonicalised through `kin`
+    /// ([`AnyPolicy::new`]): the node then accepts any condition that is feasible from the
+    /// current joint state ([`ConditionFeasibility`](super::ConditionFeasibility)) instead of a trained box. `safety`
+    /// replaces `cfg.safety`.
+    pub fn new(
+        kin: Kinematics,
+        policy: impl Into<AnyPolicy>,
+        safety: SafetySettings,
+        mut cfg: NodeConfig,
+    ) -> Result<Self, NodeError> {
+        // One source of the safety settings: the tick reads the tracking settings from
+        // `cfg`, the filter is built from `safety`.
+        cfg.safety = safety;
+        cfg.validate()?;
+        let policy = match policy.into() {
+            AnyPolicy::Plain(p) if p.meta.canonicalised.is_some() || p.meta.task_head.is_some() => {
+                AnyPolicy::new(*p, &kin).map_err(|message| NodeError::Policy { message })?
+            }
+            other => other,
+        };
+        let n = kin.dof();
+        if policy.dim() != n {
+            return Err(NodeError::Policy {
+                message: format!("policy has {} joints, robot controls {n}", policy.dim()),
+            });
+        }
+        let names = &policy.network().meta.joint_names;
+        // A task head's network is named by task coordinates, checked when it was built.
+        if policy.task_head().is_none()
+            && !names.is_empty()
+            && names.as_slice() != kin.joint_names()
+        {
+            return Err(NodeError::Policy {
+                message: format!(
+                    "policy joints {:?} differ from the robot's {:?}",
+                    names,
+                    kin.joint_names()
+                ),
+            });
+        }
+        if let Some(t) = policy.network().task_features() {
+            t.check_kinematics(&kin)
+                .map_err(|message| NodeError::Policy { message })?;
+        }
+        if safety.min_ee_distance.is_some() {
+            let c = kin.chains();
+            if c.len() != 2 || c[0].task.dim() != c[1].task.dim() {
+                return Err(NodeError::Config {
+                    field: "safety.min_ee_distance",
+                    message: format!(
+                        "needs exactly two chains of equal task dimension, robot has {}",
+                        c.len()
+                    ),
+                });
+            }
+        }
+        let limits = kin.limits().to_vec();
+        let filter = SafetyFilter::new(
+            &limits,
+            SafetySettings {
+                dt: cfg.period_s,
+                max_state_age_s: cfg.stale_timeout_s,
+                ..safety
+            },
+        )?;
+        let fs = filter.settings();
+        validate_tracking(&safety)?;
+        let pos_capacity = ((cfg.stale_timeout_s
+            + fs.state_delay_s
+            + 2.0 * fs.latency()
+            + safety.tracking_window_s)
+            / cfg.period_s)
+            .ceil()
+            .min(1e5) as usize
+            + 4;
+        let kws = kin.workspace();
+        let pws = policy.workspace();
+        let domain = cfg
+            .condition_domain(&policy)
+            .map_err(|m| NodeError::Policy {
+                message: format!("the sidecar's training record: {m}"),
+            })?;
+        if let Some(d) = &domain {
+            if let Err(part) = d.check(&cfg.default_condition) {
+                return Err(NodeError::Config {
+                    field: "default_condition",
+                    message: format!(
+                        "{:?}: {part} lies outside the policy's trained conditions ({}); \
+                         set accept_untrained_conditions = true to allow it",
+                        cfg.default_condition,
+                        d.describe()
+                    ),
+                });
+            }
+        }
+        let gate = InputGate::new(kin.joint_names(), &cfg)
+            .with_domain(domain)
+            .with_feasibility(feasibility(&policy, &limits));
+        Ok(Self {
+            kws,
+            pws,
+            policy,
+            filter,
+            limits,
+            n,
+            gate,
+            min_ee_distance: safety.min_ee_distance,
+            barrier_grad: vec![0.0; n],
+            v_policy: vec![0.0; n],
+            v_safe: vec![0.0; n],
+            q_hold: vec![0.0; n],
+            has_hold: false,
+            v_last: vec![0.0; n],
+            pos_history: CommandHistory::new(n, pos_capacity),
+            pos_window: CommandWindow::new(n),
+            unbounded: vec![f64::INFINITY; n],
+            zeros: vec![0.0; n],
+            policy_override: None,
+            restart_times: vec![f64::NEG_INFINITY; safety.max_restarts as usize + 1],
+            restart_head: 0,
+            prev_meas_q: vec![0.0; n],
+            prev_meas_time_s: f64::NEG_INFINITY,
+            prev_meas_seq: 0,
+            cmd_speed: vec![0.0; n],
+            halted: false,
+            halted_condition_seq: 0,
+            tracking_high_since: None,
+            restarts: 0,
+            not_following_ticks: 0,
+            tracking_warning_ticks: 0,
+            tracking_error: 0.0,
+            code: StatusCode::StaleJointStates,
+            ticks: 0,
+            stale_ticks: 0,
+            fallback_ticks: 0,
+            nonfinite_ticks: 0,
+            infeasible_ticks: 0,
+            active: 0,
+            age_s: -1.0,
+            tick_time_us: 0.0,
+            tick_time_max_us: 0.0,
+            cfg,
+            kin,
+        })
+    }
+
+    /// Replaces (or, with `None`, restores) the policy's output each tick: adversarial
+    /// policies of `crossym stress`. The safety filter still bounds every command.
+    pub fn set_policy_override(&mut self, f: Option<PolicyOverride>) {
+        self.policy_override = f;
+    }
+
+    /// Breaks the safety filter on purpose (tests and `crossym stress --break`).
+    pub fn inject_filter_defect(&mut self, defect: crate::safety::FilterDefect) {
+        self.filter.inject_defect(defect);
+    }
+
+    /// The node's settings.
+    pub fn config(&self) -> &NodeConfig {
+        &self.cfg
+    }
+
+    /// The robot's kinematics (controlled joints).
+    pub fn kinematics(&self) -> &Kinematics {
+        &self.kin
+    }
+
+    /// Controlled joint names, the order of every command.
+    pub fn joint_names(&self) -> &[String] {
+        self.kin.joint_names()
+    }
+
+    /// Controlled joint limits (rad, rad/s, rad/s²).
+    pub fn limits(&self) -> &[JointLimits] {
+        &self.limits
+    }
+
+    /// The condition currently applied.
+    pub fn condition(&self) -> Condition {
+        self.gate.inputs.condition
+    }
+
+    /// The latest valid joint positions (rad) and their receipt time (s), if any.
+    pub fn joint_state(&self) -> Option<(&[f64], f64)> {
+        let i = &self.gate.inputs;
+        i.state_time_s.map(|t| (i.q.as_slice(), t))
+    }
+
+    /// A command buffer sized for this node (allocate once).
+    pub fn command(&self) -> Command {
+        Command {
+            mode: self.cfg.output,
+            velocities: vec![0.0; self.n],
+            positions: vec![0.0; self.n],
+            start_positions: vec![0.0; self.n],
+            start_velocities: vec![0.0; self.n],
+        }
+    }
+
+    /// A separate input gate with this node's checks (offline replay feeding
+    /// [`NodeCore::load_inputs`], the node's log explaining rejections).
+    pub fn input_gate(&self) -> InputGate {
+        InputGate::new(self.kin.joint_names(), &self.cfg)
+            .with_domain(self.gate.domain)
+            .with_feasibility(feasibility(&self.policy, &self.limits))
+    }
+
+    /// The policy (plain or canonicalised).
+    pub fn policy(&self) -> &AnyPolicy {
+        &self.policy
+    }
+
+    /// The validated inputs so far (joint state, condition, their sequence numbers).
+    pub fn inputs(&self) -> &Inputs {
+        &self.gate.inputs
+    }
+
+    /// Replaces the node's inputs by `src` (from another gate); allocation-free.
+    pub fn load_inputs(&mut self, src: &Inputs) {
+        self.gate.inputs.copy_from(src);
+    }
+
+    /// Accepts a JointState received at `now_s` (s) or says why not; allocation-free.
+    pub fn on_joint_state(&mut self, m: &msg::JointState, now_s: f64) -> Result<(), Rejection> {
+        self.gate.on_joint_state(m, now_s)
+    }
+
+    /// Accepts a SymmetryCondition or says why not (the previous one stays); allocation-free.
+    pub fn on_condition(&mut self, m: &msg::SymmetryCondition) -> Result<(), Rejection> {
+        self.gate.on_condition(m)
+    }
+
+    fn is_position(&self) -> bool {
+        self.cfg.output != OutputMode::Velocity
+    }
+
+    /// Brakes toward zero velocity at the acceleration limits (no usable state) into `out`;
+    /// in position modes the braking velocities move the last commanded position. False when
+    /// there is nothing to command (position modes before any joint state).
+    fn brake(&mut self, now_s: f64, out: &mut Command) -> bool {
+        out.mode = self.cfg.output;
+        if self.is_position() && !self.has_hold {
+            out.velocities.fill(0.0);
+            out.positions.copy_from_slice(&self.q_hold);
+            return false;
+        }
+        out.start_positions.copy_from_slice(&self.q_hold);
+        out.start_velocities.copy_from_slice(&self.v_last);
+        self.filter.brake(now_s, &mut out.velocities);
+        let dt = self.cfg.period_s;
+        let i = &self.gate.inputs;
+        for j in 0..self.n {
+            let from = if self.is_position() || i.state_time_s.is_none() {
+                self.q_hold[j]
+            } else {
+                i.q[j]
+            };
+            out.positions[j] = clamp_to(&self.limits[j], from + out.velocities[j] * dt);
+        }
+        if self.is_position() {
+            self.q_hold.copy_from_slice(&out.positions);
+            self.pos_history.push(now_s, &out.positions);
+        }
+        self.v_last.copy_from_slice(&out.velocities);
+        true
+    }
+
+    /// True when the measured `q` lies within `tracking_tolerance` of the hull of the
+    /// positions the robot may be following (position modes): the commands from
+    /// `tracking_window_s` before the measurement until now; false after a teleport or when
+    /// the robot does not follow. Also sets the tracking error (the measured state against
+    /// the command in effect when it was measured).
+    fn tracks_commands(&mut self) -> bool {
+        let i = &self.gate.inputs;
+        let fs = self.filter.settings();
+        let s = i.measured_time_s - fs.state_delay_s;
+        let t = i.state_time_s.unwrap_or(s);
+        let window = self.cfg.safety.tracking_window_s;
+        self.pos_history.window(
+            s.min(t) - window,
+            t,
+            fs.latency(),
+            &self.unbounded,
+            &mut self.pos_window,
+        );
+        self.tracking_error = match self.pos_history.at(s) {
+            Some(c) => (0..self.n).fold(0.0, |e: f64, j| e.max((i.q[j] - c[j]).abs())),
+            None => 0.0,
+        };
+        let tol = self.cfg.safety.tracking_tolerance;
+        (0..self.n).all(|j| {
+            i.q[j] >= self.pos_window.past_min[j] - tol
+                && i.q[j] <= self.pos_window.past_max[j] + tol
+        })
+    }
+
+    /// A braking tick ([`Self::brake`]) reported as `code`.
+    fn braking(&mut self, now_s: f64, out: &mut Command, code: StatusCode) -> TickReport {
+        let publish = self.brake(now_s, out);
+        self.code = code;
+        self.active = 0;
+        TickReport {
+            code,
+            publish,
+            safety: Some(SafetyStatus::Braking),
+            active_constraints: 0,
+        }
+    }
+
+    /// Whether the measured state jumped since the previous joint state this tick saw. A
+    /// servo that does not overshoot moves no faster than its commands did over the tracking
+    /// window (its velocity is a positive average of theirs), so a joint that moved farther
+    /// than 1.5 × that speed × (the time between the two measurements + one period + the
+    /// latency `L`), plus
+    /// half the tracking tolerance (noise, sag), was moved by something else: a reset,
+    /// another controller, a glitch. Remembers the measurement for the next call.
+    fn measured_jump(&mut self) -> bool {
+        let i = &self.gate.inputs;
+        if i.joint_state_seq == self.prev_meas_seq {
+            return false;
+        }
+        let dt = i.measured_time_s - self.prev_meas_time_s;
+        let slack = 0.5 * self.cfg.safety.tracking_tolerance;
+        let since = i.measured_time_s
+            - self.filter.settings().state_delay_s
+            - self.filter.settings().latency()
+            - self.cfg.safety.tracking_window_s
+            - dt.max(0.0);
+        self.pos_history.max_speed(since, &mut self.cmd_speed);
+        // A robot that takes each position command at once moves a whole period's step
+        // between two measurements however close they are, and commands held up by the
+        // latency envelope arrive together: one period and the latency more.
+        let reach = dt + self.cfg.period_s + self.filter.settings().latency();
+        let jumped = self.prev_meas_seq != 0
+            && dt >= 0.0
+            && (0..self.n).any(|j| {
+                (i.q[j] - self.prev_meas_q[j]).abs() > 1.5 * self.cmd_speed[j] * reach + slack
+            });
+        self.prev_meas_q.copy_from_slice(&i.q);
+        self.prev_meas_time_s = i.measured_time_s;
+        self.prev_meas_seq = i.joint_state_seq;
+        jumped
+    }
+
+    /// Records a restart at `now_s`; true when it makes more than `max_restarts` within
+    /// `restart_window_s` (the robot does not follow).
+    fn count_restart(&mut self, now_s: f64) -> bool {
+        self.restarts = self.restarts.saturating_add(1);
+        let k = self.restart_times.len();
+        self.restart_head = (self.restart_head + 1) % k;
+        self.restart_times[self.restart_head] = now_s;
+        // The oldest of the last `max_restarts + 1` restarts.
+        let oldest = self.restart_times[(self.restart_head + 1) % k];
+        now_s - oldest <= self.cfg.safety.restart_window_s
+    }
+
+    /// One control tick at time `now_s` (s) into `out`; allocation-free. See the module docs.
+    pub fn tick(&mut self, now_s: f64, out: &mut Command) -> TickReport {
+        self.ticks = self.ticks.saturating_add(1);
+        let fresh = match self.gate.inputs.state_time_s {
+            Some(t) => {
+                self.age_s = now_s - t;
+                // The data's own age counts too (a republished old state is not fresh).
+                let data_age = now_s - self.gate.inputs.measured_time_s;
+                self.age_s <= self.cfg.stale_timeout_s && data_age <= self.cfg.stale_timeout_s
+            }
+            None => {
+                self.age_s = -1.0;
+                false
+            }
+        };
+        if !fresh {
+            self.stale_ticks = self.stale_ticks.saturating_add(1);
+            return self.braking(now_s, out, StatusCode::StaleJointStates);
+        }
+        // Position modes: a robot found not following stays held (braking, then holding the
+        // last command) until a new condition is accepted.
+        if self.halted {
+            if self.gate.inputs.condition_seq == self.halted_condition_seq {
+                self.not_following_ticks = self.not_following_ticks.saturating_add(1);
+                return self.braking(now_s, out, StatusCode::RobotNotFollowing);
+            }
+            // A new condition: start again from the measured state, with a clean count.
+            self.halted = false;
+            self.has_hold = false;
+            self.restart_times.fill(f64::NEG_INFINITY);
+        }
+        // Position modes: the next command continues the last commanded position, unless
+        // there is none yet or the robot is not where the commands put it (a reset, a robot
+        // that does not follow): then it starts from the measured state at rest.
+        let mut restarted = false;
+        let mut lagging = false;
+        if self.is_position() {
+            // With a lag window, a measured jump (a reset, a robot moved by something else)
+            // restarts even when it lands inside the envelope of the window's commands.
+            // Without one the envelope is the commands since the measurement: a jump
+            // leaves it anyway.
+            let jumped = self.cfg.safety.tracking_window_s > 0.0 && self.measured_jump();
+            let tracks = !self.has_hold || (!jumped && self.tracks_commands());
+            if !tracks && self.count_restart(now_s) {
+                // Repeated restarts: the robot does not follow. Hold where the commands are.
+                self.halted = true;
+                self.halted_condition_seq = self.gate.inputs.condition_seq;
+                self.not_following_ticks = self.not_following_ticks.saturating_add(1);
+                self.tracking_high_since = None;
+                return self.braking(now_s, out, StatusCode::RobotNotFollowing);
+            }
+            if !self.has_hold || !tracks {
+                restarted = self.has_hold;
+                for j in 0..self.n {
+                    self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
+                }
+                self.filter.reset(&self.zeros);
+                if self.has_hold {
+                    // Commands still in flight may yet move the robot: keep them in the hull.
+                    self.pos_history.push(now_s, &self.q_hold);
+                } else {
+                    self.pos_history.reset_to(&self.q_hold);
+                }
+                self.has_hold = true;
+                self.tracking_high_since = None;
+                self.tracking_error = 0.0;
+                self.v_last.fill(0.0);
+            }
+            lagging = self.watch_tracking(now_s);
+        }
+        let inputs = &self.gate.inputs;
+        let q = inputs.q.as_slice();
+        // FK and Jacobian once: the safety filter reads the Jacobian, the policy's task
+        // features the point `f(q)` (the same FK as the policy's stored chains, checked at
+        // setup).
+        self.kin.jacobian(q, &mut self.kws);
+        let infeasible = self
+            .policy
+            .velocity_at(
+                q,
+                self.kws.x.as_slice(),
+                &inputs.condition,
+                &mut self.v_policy,
+                &mut self.pws,
+            )
+            .is_err();
+        if infeasible {
+            // The accepted condition's flows fail from here: no policy velocity (the filter
+            // replaces the non-finite output by 0 and brakes within the limits).
+            self.v_policy.fill(f64::NAN);
+            self.infeasible_ticks = self.infeasible_ticks.saturating_add(1);
+        }
+        if let Some(f) = self.policy_override.as_mut() {
+            f(self.ticks, q, &mut self.v_policy);
+        }
+        let jac_ok = self.kws.jac.iter().all(|x| x.is_finite());
+        let barrier = match self.min_ee_distance {
+            Some(d_min) if jac_ok => {
+                ee_barrier(&self.kin, &self.kws, d_min, &mut self.barrier_grad)
+            }
+            _ => None,
+        };
+        let jac = if jac_ok { Some(&self.kws.jac) } else { None };
+        let position = self.cfg.output != OutputMode::Velocity;
+        let anchor = if position {
+            Anchor::Commanded { q: &self.q_hold }
+        } else {
+            Anchor::Measured {
+                q,
+                time_s: inputs.measured_time_s,
+            }
+        };
+        let report = self.filter.filter(
+            now_s,
+            anchor,
+            &self.v_policy,
+            jac,
+            barrier,
+            &mut self.v_safe,
+        );
+        out.mode = self.cfg.output;
+        out.start_positions.copy_from_slice(&self.q_hold);
+        out.start_velocities.copy_from_slice(&self.v_last);
+        let dt = self.cfg.period_s;
+        let mut finite = true;
+        for j in 0..self.n {
+            let v = self.v_safe[j];
+            let from = if position { self.q_hold[j] } else { q[j] };
+            let p = clamp_to(&self.limits[j], from + v * dt);
+            finite &= v.is_finite() && p.is_finite();
+            out.velocities[j] = v;
+            out.positions[j] = p;
+        }
+        if !finite {
+            // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
+            let publish = self.brake(now_s, out);
+            self.code = StatusCode::SafetyFallback;
+            self.fallback_ticks = self.fallback_ticks.saturating_add(1);
+            self.active = 0;
+            return TickReport {
+                code: self.code,
+                publish,
+                safety: Some(report.status),
+                active_constraints: 0,
+            };
+        }
+        if position {
+            self.q_hold.copy_from_slice(&out.positions);
+            self.pos_history.push(now_s, &out.positions);
+        }
+        self.v_last.copy_from_slice(&out.velocities);
+        self.active = report.active;
+        if report.status == SafetyStatus::Fallback {
+            self.fallback_ticks = self.fallback_ticks.saturating_add(1);
+        }
+        // The NaN of an infeasible condition is reported as such, not as a policy fault.
+        if report.policy_nonfinite && !infeasible {
+            self.nonfinite_ticks = self.nonfinite_ticks.saturating_add(1);
+        }
+        self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
+            StatusCode::InvalidInput
+        } else if report.status == SafetyStatus::Fallback {
+            StatusCode::SafetyFallback
+        } else if infeasible {
+            StatusCode::ConditionInfeasible
+        } else if report.policy_nonfinite {
+            StatusCode::PolicyNonfinite
+        } else if restarted {
+            StatusCode::RestartedFromMeasured
+        } else if lagging {
+            StatusCode::TrackingError
+        } else if report.active > 0 {
+            StatusCode::JointBound
+        } else {
+            StatusCode::NoWarning
+        };
+        TickReport {
+            code: self.code,
+            publish: true,
+            safety: Some(report.status),
+            active_constraints: report.active,
+        }
+    }
+
+    /// The final command on shutdown (zero velocity / hold position) into `out`; false
+    /// when there is nothing to hold (position mode before any joint state).
+    pub fn shutdown_command(&mut self, out: &mut Command) -> bool {
+        self.code = StatusCode::Shutdown;
+        out.mode = self.cfg.output;
+        out.velocities.fill(0.0);
+        let i = &self.gate.inputs;
+        if !self.is_position() {
+            if i.state_time_s.is_some() {
+                for j in 0..self.n {
+                    out.positions[j] = clamp_to(&self.limits[j], i.q[j]);
+                }
+            }
+            return true;
+        }
+        out.positions.copy_from_slice(&self.q_hold);
+        self.has_hold
+    }
+
+    /// Whether the tracking error has stayed above `tracking_warning` for longer than
+    /// `tracking_window_s` (at least one period) at `now_s`; counts such ticks.
+    fn watch_tracking(&mut self, now_s: f64) -> bool {
+        let Some(limit) = self.cfg.safety.tracking_warning else {
+            return false;
+        };
+        if self.tracking_error <= limit {
+            self.tracking_high_since = None;
+            return false;
+        }
+        let since = *self.tracking_high_since.get_or_insert(now_s);
+        let lagging = now_s - since >= self.cfg.safety.tracking_window_s.max(self.cfg.period_s);
+        if lagging {
+            self.tracking_warning_ticks = self.tracking_warning_ticks.saturating_add(1);
+        }
+        lagging
+    }
+
+    /// Records the caller-measured duration of the last tick (µs).
+    pub fn record_tick_time(&mut self, us: f64) {
+        if us.is_finite() {
+            self.tick_time_us = us;
+            self.tick_time_max_us = self.tick_time_max_us.max(us);
+        }
+    }
+
+    /// Snapshot for the Status message.
+    pub fn status(&self) -> StatusSnapshot {
+        StatusSnapshot {
+            code: self.code,
+            message: self.code.message(),
+            last_error: self.gate.inputs.last_error,
+            active_constraints: self.active,
+            rejected_joint_states: self.gate.inputs.rejected_joint_states,
+            rejected_conditions: self.gate.inputs.rejected_conditions,
+            ticks: self.ticks,
+            stale_ticks: self.stale_ticks,
+            fallback_ticks: self.fallback_ticks,
+            nonfinite_ticks: self.nonfinite_ticks,
+            infeasible_ticks: self.infeasible_ticks,
+            joint_state_age_s: self.age_s,
+            restarts: self.restarts,
+            not_following_ticks: self.not_following_ticks,
+            tracking_warning_ticks: self.tracking_warning_ticks,
+            tracking_error: self.tracking_error,
+            tick_time_us: self.tick_time_us,
+            tick_time_max_us: self.tick_time_max_us,
+            condition: self.gate.inputs.condition,
+        }
+    }
+}
+
+/// The end-effector distance barrier `h(q) = ‖p₁ − p₂‖ − d_min` and its gradient
+/// `∂h/∂q = uᵀ[J₁, −J₂]`, `u = (p₁ − p₂)/‖p₁ − p₂‖`, from `ws` after [`Kinematics::jacobian`].
+/// `None` when the end-effectors coincide (no direction). Allocation-free.
+fn ee_barrier<'g>(
+    kin: &Kinematics,
+    ws: &KinematicsWorkspace,
+    d_min: f64,
+    grad: &'g mut [f64],
+) -> Option<Barrier<'g>> {
+    let d = kin.chains()[0].task.dim();
+    let (x1, x2) = (kin.x_offset(0), kin.x_offset(1));
+    let mut dist2 = 0.0;
+    for r in 0..d {
+        let e = ws.x[x1 + r] - ws.x[x2 + r];
+        dist2 += e * e;
+    }
+    let dist = dist2.sqrt();
+    if !(dist.is_finite() && dist > 1e-9) {
+        return None;
+    }
+    for (col, g) in grad.iter_mut().enumerate() {
+        let mut acc = 0.0;
+        for r in 0..d {
+            let u = (ws.x[x1 + r] - ws.x[x2 + r]) / dist;
+            acc += u * (ws.jac[(x1 + r, col)] - ws.jac[(x2 + r, col)]);
+        }
+        *g = acc;
+    }
+    Some(Barrier {
+        gradient: grad,
+        value: dist - d_min,
+    })
+}
+
+/// Clamps `x` into `[lower, upper]` (infinite limits bound nothing; NaN stays NaN).
+fn clamp_to(l: &JointLimits, x: f64) -> f64 {
+    let mut y = x;
+    if y > l.upper {
+        y = l.upper;
+    }
+    if y < l.lower {
+        y = l.lower;
+    }
+    y
+}

@@ -1,0 +1,210 @@
+//! The node's status: codes (following `moveit_msgs` ServoStatus), the per-tick report and
+//! the `Copy` snapshot the I/O side logs and publishes.
+
+use crossym_io::msg;
+use crossym_math::symmetry::compose::Condition;
+
+use super::rejection::Rejection;
+use crate::safety::SafetyStatus;
+
+/// Status codes of `crossym_msgs/Status` (values equal the message's constants).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(i8)]
+#[non_exhaustive]
+pub enum StatusCode {
+    /// The (filtered) policy output was commanded.
+    NoWarning = 0,
+    /// The end-effector distance barrier shaped the command.
+    DecelerateForCollision = 3,
+    /// At least one joint's command sits on a bound.
+    JointBound = 5,
+    /// No joint state yet, or a stale one: zero velocity / hold.
+    StaleJointStates = 16,
+    /// The latest message on an input topic was rejected.
+    InvalidInput = 17,
+    /// The safety QP failed; the clamp of the policy output was commanded.
+    SafetyFallback = 18,
+    /// The policy returned non-finite velocities (replaced by 0).
+    PolicyNonfinite = 19,
+    /// Shutting down: the final zero / hold command was produced.
+    Shutdown = 20,
+    /// A canonicalised policy's flows failed from the current state (the robot moved to
+    /// where the accepted condition is singular), or a task-space head's lift `J⁺` is
+    /// singular there (a stretched or folded arm): zero velocity, filtered.
+    ConditionInfeasible = 21,
+    /// Position modes: the measured state left the envelope of the commands the robot may
+    /// be following (a reset, a robot moved by something else): the commands restarted from
+    /// the measured state at rest this tick.
+    RestartedFromMeasured = 22,
+    /// Position modes: the robot does not follow its commands (more than
+    /// `safety.max_restarts` restarts within `safety.restart_window_s`): braking to a hold,
+    /// no policy motion until a new condition is accepted.
+    RobotNotFollowing = 23,
+    /// Position modes: the measured state has been farther than `safety.tracking_warning`
+    /// from the command in effect for longer than `safety.tracking_window_s`.
+    TrackingError = 24,
+}
+
+impl StatusCode {
+    /// The `Status.msg` constant name of this code.
+    pub fn constant_name(self) -> &'static str {
+        match self {
+            StatusCode::NoWarning => "NO_WARNING",
+            StatusCode::DecelerateForCollision => "DECELERATE_FOR_COLLISION",
+            StatusCode::JointBound => "JOINT_BOUND",
+            StatusCode::StaleJointStates => "STALE_JOINT_STATES",
+            StatusCode::InvalidInput => "INVALID_INPUT",
+            StatusCode::SafetyFallback => "SAFETY_FALLBACK",
+            StatusCode::PolicyNonfinite => "POLICY_NONFINITE",
+            StatusCode::Shutdown => "SHUTDOWN",
+            StatusCode::ConditionInfeasible => "CONDITION_INFEASIBLE",
+            StatusCode::RestartedFromMeasured => "RESTARTED_FROM_MEASURED",
+            StatusCode::RobotNotFollowing => "ROBOT_NOT_FOLLOWING",
+            StatusCode::TrackingError => "TRACKING_ERROR",
+        }
+    }
+
+    /// The code's value in `Status.code`.
+    pub fn value(self) -> i8 {
+        self as i8
+    }
+
+    /// Every code, for table checks.
+    pub const ALL: [StatusCode; 12] = [
+        StatusCode::NoWarning,
+        StatusCode::DecelerateForCollision,
+        StatusCode::JointBound,
+        StatusCode::StaleJointStates,
+        StatusCode::InvalidInput,
+        StatusCode::SafetyFallback,
+        StatusCode::PolicyNonfinite,
+        StatusCode::Shutdown,
+        StatusCode::ConditionInfeasible,
+        StatusCode::RestartedFromMeasured,
+        StatusCode::RobotNotFollowing,
+        StatusCode::TrackingError,
+    ];
+
+    /// Human-readable text of the code.
+    pub fn message(self) -> &'static str {
+        match self {
+            StatusCode::NoWarning => "ok",
+            StatusCode::DecelerateForCollision => "end-effector distance barrier active",
+            StatusCode::JointBound => "joint command on a velocity/acceleration/position bound",
+            StatusCode::StaleJointStates => "no recent joint state: zero velocity / hold",
+            StatusCode::InvalidInput => "latest input message rejected (see last_error)",
+            StatusCode::SafetyFallback => "safety QP failed: clamped policy output",
+            StatusCode::PolicyNonfinite => "policy output not finite: replaced by 0",
+            StatusCode::Shutdown => "shutting down: final zero/hold command",
+            StatusCode::ConditionInfeasible => {
+                "policy undefined at the current state (singular flow or lift): zero velocity"
+            }
+            StatusCode::RestartedFromMeasured => {
+                "robot left the envelope of its commands: restarted from the measured state"
+            }
+            StatusCode::RobotNotFollowing => {
+                "robot does not follow its commands: holding until a new condition is accepted"
+            }
+            StatusCode::TrackingError => {
+                "robot lags its commands by more than safety.tracking_warning"
+            }
+        }
+    }
+}
+
+/// What one tick did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickReport {
+    /// Status code of this tick.
+    pub code: StatusCode,
+    /// False when there is nothing safe to publish (position mode before any joint state).
+    pub publish: bool,
+    /// Safety filter status; `None` when the policy was not evaluated (stale).
+    pub safety: Option<SafetyStatus>,
+    /// Joints on a bound (count).
+    pub active_constraints: u32,
+}
+
+/// Snapshot of the node for the Status message (no allocation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StatusSnapshot {
+    /// Code of the last tick.
+    pub code: StatusCode,
+    /// Text of the code.
+    pub message: &'static str,
+    /// Last rejected input, if any since start.
+    pub last_error: Option<Rejection>,
+    /// Joints on a bound in the last tick (count).
+    pub active_constraints: u32,
+    /// Rejected joint_states messages (count).
+    pub rejected_joint_states: u32,
+    /// Rejected symmetry_condition messages (count).
+    pub rejected_conditions: u32,
+    /// Ticks since start (count).
+    pub ticks: u64,
+    /// Stale ticks since start (count).
+    pub stale_ticks: u64,
+    /// Ticks on which the safety QP fell back to the clamp (count).
+    pub fallback_ticks: u64,
+    /// Ticks on which the policy returned non-finite velocities (count).
+    pub nonfinite_ticks: u64,
+    /// Ticks on which a canonicalised policy's flows failed for the accepted condition
+    /// (zero velocity commanded; count).
+    pub infeasible_ticks: u64,
+    /// Age of the joint state at the last tick (s); negative when none.
+    pub joint_state_age_s: f64,
+    /// Position modes: restarts from the measured state since start (count).
+    pub restarts: u64,
+    /// Position modes: ticks held because the robot does not follow (count).
+    pub not_following_ticks: u64,
+    /// Position modes: ticks with a tracking error above `safety.tracking_warning` for
+    /// longer than `safety.tracking_window_s` (count).
+    pub tracking_warning_ticks: u64,
+    /// Position modes: the largest distance (rad or m) over the joints between the measured
+    /// position and the command in effect when it was measured, at the last tick; 0 in
+    /// velocity mode.
+    pub tracking_error: f64,
+    /// Duration of the last tick (µs), as recorded by the caller.
+    pub tick_time_us: f64,
+    /// Maximum recorded tick duration (µs).
+    pub tick_time_max_us: f64,
+    /// Condition of the last tick.
+    pub condition: Condition,
+}
+
+impl StatusSnapshot {
+    /// As a Status message stamped `stamp` (allocates; off the tick).
+    pub fn to_msg(&self, stamp: msg::Time, joint_names: &[String]) -> msg::Status {
+        let header = msg::Header {
+            stamp,
+            frame_id: String::new(),
+        };
+        msg::Status {
+            header: header.clone(),
+            code: self.code as i8,
+            message: self.message.to_string(),
+            last_error: self
+                .last_error
+                .map(|r| r.explain(joint_names))
+                .unwrap_or_default(),
+            active_constraints: self.active_constraints,
+            rejected_joint_states: self.rejected_joint_states,
+            rejected_conditions: self.rejected_conditions,
+            ticks: self.ticks,
+            stale_ticks: self.stale_ticks,
+            joint_state_age_s: self.joint_state_age_s,
+            tick_time_us: self.tick_time_us,
+            tick_time_max_us: self.tick_time_max_us,
+            condition: msg::SymmetryCondition {
+                header,
+                theta: self.condition.theta,
+                scale: self.condition.scale,
+                reflection: self.condition.reflection,
+            },
+            restarts: self.restarts,
+            not_following_ticks: self.not_following_ticks,
+            tracking_warning_ticks: self.tracking_warning_ticks,
+            tracking_error: self.tracking_error,
+        }
+    }
+}
