@@ -1,0 +1,227 @@
+//! One episode: the node core against the simulated robot, event by event, with every
+//! published command checked against the episode's limits.
+
+use std::collections::VecDeque;
+
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+use crossym_control::safety::FilterDefect;
+use crossym_control::{NodeCore, OutputMode};
+use crossym_io::msg;
+use crossym_math::kinematics::JointLimits;
+
+use super::plan::EpisodePlan;
+use super::robot::SimRobot;
+use super::tally::Tally;
+use super::Geometry;
+
+/// Runs one episode; the tally of its violations.
+pub fn run_episode(
+    geometries: &[Geometry],
+    mode: OutputMode,
+    seed: u64,
+    duration_s: f64,
+    defect: FilterDefect,
+) -> Result<Tally, String> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut tally = Tally {
+        episodes: 1,
+        ..Default::default()
+    };
+    let plan = EpisodePlan::draw(geometries, mode, duration_s, &mut rng, &mut tally);
+    let mut core = node_core(&plan, seed, defect)?;
+    let tr = &plan.transport;
+    let (period, n) = (tr.period, plan.limits.len());
+    let (limits, accel) = (&plan.limits, &plan.accel);
+
+    let names = core.joint_names().to_vec();
+    let position_robot = mode != OutputMode::Velocity;
+    let mut robot = SimRobot::new(plan.start.clone(), names, limits, position_robot);
+    let mut pending_states: VecDeque<(i64, msg::JointState)> = VecDeque::new();
+    let mut burst = 0usize;
+    let mut next_tick = plan.tick_phase_us;
+    let mut next_state = 0i64;
+    let mut t = 0i64;
+    let mut cmd = core.command();
+    let mut stream = CommandStream::new(n, period, position_robot);
+    robot.check_position(&mut tally);
+
+    while t < plan.t_end_us {
+        let next_st = pending_states.front().map_or(i64::MAX, |p| p.0);
+        let t_next = next_tick
+            .min(next_state)
+            .min(robot.next_command_at())
+            .min(next_st)
+            .min(plan.t_end_us);
+        robot.integrate(t, t_next, &mut tally);
+        t = t_next;
+        if t >= plan.t_end_us {
+            break;
+        }
+        robot.receive(t, &mut tally);
+        // Joint states arriving at the node now.
+        while pending_states.front().is_some_and(|p| p.0 <= t) {
+            let (_, m) = pending_states.pop_front().expect("front");
+            let _ = core.on_joint_state(&m, t as f64 * 1e-6);
+        }
+        // The robot publishes a joint state.
+        if t == next_state {
+            next_state += plan.state_period_us;
+            if let Some(m) = robot.publish(t, plan.fault_at(t), tr.noise, &mut rng) {
+                let d = if tr.state_delay > 0.0 {
+                    rng.random_range(0.0..=tr.state_delay)
+                } else {
+                    0.0
+                };
+                let at = t + (d * 1e6) as i64;
+                let at = pending_states.back().map_or(at, |p| p.0.max(at));
+                pending_states.push_back((at, m));
+            }
+        }
+        // The node ticks.
+        if t == next_tick {
+            next_tick += tr.period_us;
+            let rep = core.tick(t as f64 * 1e-6, &mut cmd);
+            tally.ticks += 1;
+            if !rep.publish {
+                continue;
+            }
+            tally.commands += 1;
+            let data = cmd.data().to_vec();
+            let trace = |j: usize, a: f64, p: f64, v: f64| {
+                eprintln!(
+                    "seed {seed} t {:.3} joint {j}: accel {a:.3} > {:.3} (v {p:.4} -> {v:.4}) code {:?} q {:.4} state {:?}",
+                    t as f64 * 1e-6, accel[j], rep.code, robot.q[j], core.joint_state().map(|(q, t)| (q[j], t))
+                );
+            };
+            stream.check(&data, limits, accel, &mut tally, trace);
+            // Transport to the robot.
+            if tr.drop_p > 0.0 && burst < tr.max_burst && rng.random_bool(tr.drop_p) {
+                burst += 1;
+                continue;
+            }
+            burst = 0;
+            let lat = tr.lat_base
+                + if tr.lat_jitter > 0.0 {
+                    rng.random_range(0.0..=tr.lat_jitter)
+                } else {
+                    0.0
+                };
+            robot.send(t + (lat * 1e6) as i64, data);
+        }
+    }
+    if !tally.clean() {
+        tally.failing_seeds.push(seed);
+    }
+    Ok(tally)
+}
+
+/// The published command stream as the robot sees it: velocities (or, for a position
+/// robot, the velocities implied by successive positions) and their changes, checked
+/// against the episode's limits.
+struct CommandStream {
+    period: f64,
+    position: bool,
+    /// The previous published (or implied) velocity.
+    prev: Option<Vec<f64>>,
+    /// The previous published position (position robot).
+    prev_pos: Option<Vec<f64>>,
+    implied: Vec<f64>,
+}
+
+impl CommandStream {
+    fn new(n: usize, period: f64, position: bool) -> Self {
+        Self {
+            period,
+            position,
+            prev: None,
+            prev_pos: None,
+            implied: vec![0.0; n],
+        }
+    }
+
+    /// Counts the non-finite values of command `data` and its velocity and acceleration
+    /// violations; `trace(joint, acceleration, previous, current velocity)` is called for
+    /// each acceleration violation under `CROSSYM_STRESS_TRACE`.
+    fn check(
+        &mut self,
+        data: &[f64],
+        limits: &[JointLimits],
+        accel: &[f64],
+        tally: &mut Tally,
+        trace: impl Fn(usize, f64, f64, f64),
+    ) {
+        let (n, period) = (limits.len(), self.period);
+        tally.nonfinite += data.iter().filter(|x| !x.is_finite()).count() as u64;
+        let vel: &[f64] = if self.position {
+            match &self.prev_pos {
+                Some(p) => {
+                    for j in 0..n {
+                        self.implied[j] = (data[j] - p[j]) / period;
+                    }
+                    &self.implied
+                }
+                None => &[],
+            }
+        } else {
+            data
+        };
+        if !vel.is_empty() {
+            for j in 0..n {
+                let e = vel[j].abs() - limits[j].velocity;
+                if e > 1e-9 * limits[j].velocity + 1e-12 {
+                    tally.velocity += 1;
+                    tally.velocity_worst = tally.velocity_worst.max(e);
+                }
+            }
+            if let Some(p) = &self.prev {
+                for j in 0..n {
+                    let a = (vel[j] - p[j]).abs() / period;
+                    let e = a - accel[j];
+                    if e > 1e-9 * accel[j] + 1e-9 {
+                        if std::env::var_os("CROSSYM_STRESS_TRACE").is_some() {
+                            trace(j, a, p[j], vel[j]);
+                        }
+                        tally.acceleration += 1;
+                        tally.acceleration_worst = tally.acceleration_worst.max(e);
+                    }
+                }
+            }
+            self.prev = Some(vel.to_vec());
+        }
+        if self.position {
+            self.prev_pos = Some(data.to_vec());
+        }
+    }
+}
+
+/// The node core of the episode: the plan's limits and settings, the condition sent, the
+/// adversary's override of the policy and the filter defect under test.
+fn node_core(plan: &EpisodePlan, seed: u64, defect: FilterDefect) -> Result<NodeCore, String> {
+    let g = plan.geometry;
+    let kin = g
+        .kinematics
+        .clone()
+        .with_limits(plan.limits.clone())
+        .ok_or("limits of the wrong length")?;
+    let safety = plan.node.safety;
+    let mut core = NodeCore::new(kin, g.policy.clone(), safety, plan.node.clone())
+        .map_err(|e| format!("{}: {e}", g.name))?;
+    core.inject_filter_defect(defect);
+    let c = plan.condition;
+    let _ = core.on_condition(&msg::SymmetryCondition {
+        header: msg::Header::default(),
+        theta: c.theta,
+        scale: c.scale,
+        reflection: c.reflection,
+    });
+    let vmax: Vec<f64> = plan.limits.iter().map(|l| l.velocity).collect();
+    if let Some(f) = plan
+        .adversary
+        .policy_override(vmax, plan.signs.clone(), seed)
+    {
+        core.set_policy_override(Some(f));
+    }
+    Ok(core)
+}
