@@ -8,8 +8,8 @@ use std::time::Instant;
 use anyhow::Context;
 use crossym::config::Config;
 use crossym::control::OutputMode;
-use crossym::safety::FilterDefect;
-use crossym::sim::stress::{report_table, run_campaign, StressSettings};
+use crossym::safety::{BoundRules, ExactBounds};
+use crossym::sim::stress::{report_table, run_campaign, Geometry, StressSettings};
 
 /// Options of `crossym stress`.
 #[derive(Debug, clap::Args)]
@@ -87,15 +87,6 @@ pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
             )),
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let defect = match a.defect.as_deref() {
-        None => FilterDefect::None,
-        Some("no-horizon") => FilterDefect::NoHorizon,
-        Some("no-position-bound") => FilterDefect::NoPositionBound,
-        Some("no-acceleration-bound") => FilterDefect::NoAccelerationBound,
-        Some(o) => anyhow::bail!(
-            "--break: `{o}` is not no-horizon, no-position-bound or no-acceleration-bound"
-        ),
-    };
     if !(a.duration_s.is_finite() && a.duration_s > 0.0) {
         anyhow::bail!("--duration-s must be positive");
     }
@@ -104,16 +95,64 @@ pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
         seed: a.seed,
         modes,
         duration_s: a.duration_s,
-        defect,
     };
+    match a.defect.as_deref() {
+        None => campaign(a, &geometries, &settings, ExactBounds, None),
+        Some(name) => broken(a, &geometries, &settings, name),
+    }
+}
+
+/// `--break`: the campaign with a deliberately broken filter (feature `fault-injection`).
+#[cfg(feature = "fault-injection")]
+fn broken(
+    a: &StressArgs,
+    geometries: &[Geometry],
+    settings: &StressSettings,
+    name: &str,
+) -> anyhow::Result<ExitCode> {
+    use crossym::control::faults::FilterDefect;
+    let defect = match name {
+        "no-horizon" => FilterDefect::NoHorizon,
+        "no-position-bound" => FilterDefect::NoPositionBound,
+        "no-acceleration-bound" => FilterDefect::NoAccelerationBound,
+        o => anyhow::bail!(
+            "--break: `{o}` is not no-horizon, no-position-bound or no-acceleration-bound"
+        ),
+    };
+    let label = format!(", DELIBERATELY BROKEN FILTER ({defect:?})");
+    campaign(a, geometries, settings, defect, Some(label))
+}
+
+/// `--break` in a build without the `fault-injection` feature (e.g. the Docker image).
+#[cfg(not(feature = "fault-injection"))]
+fn broken(
+    _: &StressArgs,
+    _: &[Geometry],
+    _: &StressSettings,
+    name: &str,
+) -> anyhow::Result<ExitCode> {
+    anyhow::bail!(
+        "--break {name}: this crossym was built without the `fault-injection` feature (on by \
+         default; the Docker image leaves it out), so it has no broken filter to run"
+    )
+}
+
+/// The campaign (or one episode, `--episode`) with the filter's bound rules `rules`.
+fn campaign<R: BoundRules + Clone + Send + Sync>(
+    a: &StressArgs,
+    geometries: &[Geometry],
+    settings: &StressSettings,
+    rules: R,
+    broken: Option<String>,
+) -> anyhow::Result<ExitCode> {
     if let Some(seed) = a.episode {
         std::env::set_var("CROSSYM_STRESS_TRACE", "1");
         let t = crossym::sim::stress::run_episode(
-            &geometries,
+            geometries,
             settings.modes[0],
             seed,
             a.duration_s,
-            defect,
+            rules,
         )
         .map_err(anyhow::Error::msg)?;
         println!("{t:?}");
@@ -130,14 +169,10 @@ pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
         a.seed,
         a.duration_s,
         names.join(", "),
-        if defect == FilterDefect::None {
-            String::new()
-        } else {
-            format!(", DELIBERATELY BROKEN FILTER ({defect:?})")
-        }
+        broken.unwrap_or_default()
     );
     let t0 = Instant::now();
-    let report = run_campaign(&geometries, &settings).map_err(anyhow::Error::msg)?;
+    let report = run_campaign(geometries, settings, rules).map_err(anyhow::Error::msg)?;
     let table = report_table(&report);
     println!("{table}");
     println!("run time {:.1} s", t0.elapsed().as_secs_f64());

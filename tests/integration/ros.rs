@@ -3,12 +3,14 @@
 
 use std::path::Path;
 
+use crossym::control::faults::OverrideOutput;
+use crossym::control::node::OutputStage;
 use crossym::control::{Command, NodeConfig, NodeCore, OutputMode, Rejection, StatusCode};
 use crossym::kinematics::JointLimits;
 use crossym::msg::{self, RosMessage};
 use crossym::msgdef::{ArrayKind, MsgDef};
 use crossym::policy::{MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
-use crossym::safety::SafetySettings;
+use crossym::safety::{ExactBounds, SafetySettings};
 use crossym::symmetry::compose::Condition;
 use serde::de::{Deserializer as _, IgnoredAny, MapAccess, Visitor};
 
@@ -282,6 +284,21 @@ fn policy(n: usize, bias: &[f64]) -> Policy {
 }
 
 fn node(output: OutputMode, bias: Option<&[f64]>) -> NodeCore {
+    let (kin, p, cfg) = node_parts(output, bias);
+    NodeCore::new(kin, p, SafetySettings::default(), cfg).unwrap()
+}
+
+/// [`node`] whose policy output a test can override ([`OverrideOutput`]).
+fn node_with_override(output: OutputMode) -> NodeCore<OverrideOutput> {
+    let (kin, p, cfg) = node_parts(output, None);
+    let stage = OverrideOutput::default();
+    NodeCore::with_stages(kin, p, SafetySettings::default(), cfg, stage, ExactBounds).unwrap()
+}
+
+fn node_parts(
+    output: OutputMode,
+    bias: Option<&[f64]>,
+) -> (crossym::kinematics::Kinematics, Policy, NodeConfig) {
     let robot = common::planar();
     let n = robot.kinematics.dof();
     let zero = vec![0.0; n];
@@ -290,11 +307,11 @@ fn node(output: OutputMode, bias: Option<&[f64]>) -> NodeCore {
         output,
         ..NodeConfig::default()
     };
-    NodeCore::new(robot.kinematics, p, SafetySettings::default(), cfg).unwrap()
+    (robot.kinematics, p, cfg)
 }
 
 /// A JointState with the controlled joints at `q` plus a torso joint, stamped `t` (s).
-fn joint_state(core: &NodeCore, q: &[f64], t: f64) -> msg::JointState {
+fn joint_state<O: OutputStage>(core: &NodeCore<O>, q: &[f64], t: f64) -> msg::JointState {
     let mut name = vec!["torso_0".to_string()];
     name.extend(core.joint_names().iter().rev().cloned());
     let mut position = vec![123.0];
@@ -818,11 +835,11 @@ fn demo_refuses_a_condition_the_policy_was_not_trained_on() {
 #[test]
 fn a_nonfinite_policy_output_is_reported_and_never_published() {
     for mode in [OutputMode::Velocity, OutputMode::Position] {
-        let mut core = node(mode, None);
-        core.set_policy_override(Some(Box::new(|tick, _q, v| {
+        let mut core = node_with_override(mode);
+        core.output_stage_mut().0 = Some(Box::new(|tick, _q, v| {
             v[0] = f64::NAN;
             v[1] = if tick % 2 == 0 { f64::INFINITY } else { -1e300 };
-        })));
+        }));
         let mut cmd = core.command();
         let mut q = Q0.to_vec();
         let mut nonfinite = 0;
@@ -856,7 +873,7 @@ fn a_nonfinite_policy_output_is_reported_and_never_published() {
         let m = core.status().to_msg(Default::default(), core.joint_names());
         assert_eq!(m.code, code.value());
         // A huge output: the QP still solves it (every joint on a bound).
-        core.set_policy_override(Some(Box::new(|_, _, v| v.fill(-1e300))));
+        core.output_stage_mut().0 = Some(Box::new(|_, _, v| v.fill(-1e300)));
         let t = 1.0;
         core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
         let r = core.tick(t, &mut cmd);
@@ -867,7 +884,7 @@ fn a_nonfinite_policy_output_is_reported_and_never_published() {
         }
         // An output so large that `W v` overflows: both solvers fail, the clamp is
         // commanded, SafetyFallback.
-        core.set_policy_override(Some(Box::new(|_, _, v| v.fill(-f64::MAX))));
+        core.output_stage_mut().0 = Some(Box::new(|_, _, v| v.fill(-f64::MAX)));
         let t = 1.01;
         core.on_joint_state(&joint_state(&core, &q, t), t).unwrap();
         let r = core.tick(t, &mut cmd);
@@ -890,10 +907,9 @@ fn closest_hands(min_ee_distance: Option<f64>) -> f64 {
         min_ee_distance,
         ..SafetySettings::default()
     };
-    let mut core = NodeCore::new(robot.kinematics, policy(n, &vec![0.0; n]), safety, cfg).unwrap();
     let pull = kin.clone();
     let mut ws = pull.workspace();
-    core.set_policy_override(Some(Box::new(move |_, q, v| {
+    let stage = OverrideOutput(Some(Box::new(move |_, q, v| {
         // v = J₁ᵀ(p₂ − p₁) for the first hand and J₂ᵀ(p₁ − p₂) for the second, × 20.
         pull.jacobian(q, &mut ws);
         let (a, b) = (pull.x_offset(0), pull.x_offset(1));
@@ -906,6 +922,15 @@ fn closest_hands(min_ee_distance: Option<f64>) -> f64 {
             *vc = acc;
         }
     })));
+    let mut core = NodeCore::with_stages(
+        robot.kinematics,
+        policy(n, &vec![0.0; n]),
+        safety,
+        cfg,
+        stage,
+        ExactBounds,
+    )
+    .unwrap();
     let mut ws = kin.workspace();
     let mut q = Q0.to_vec();
     let mut cmd = core.command();

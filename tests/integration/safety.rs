@@ -6,9 +6,10 @@
 
 use std::collections::VecDeque;
 
+use crossym::control::faults::FilterDefect;
 use crossym::control::OutputMode;
 use crossym::kinematics::JointLimits;
-use crossym::safety::{Anchor, Barrier, FilterDefect, SafetyFilter, SafetySettings, SafetyStatus};
+use crossym::safety::{Anchor, Barrier, ExactBounds, SafetyFilter, SafetySettings, SafetyStatus};
 use crossym::sim::stress::{run_campaign, Geometry, StressSettings};
 use nalgebra::DMatrix;
 use rand::Rng;
@@ -153,8 +154,7 @@ fn closed_loop(
         max_state_age_s: 0.1,
         ..Default::default()
     };
-    let mut filter = SafetyFilter::new(&limits, settings).unwrap();
-    filter.inject_defect(defect);
+    let mut filter = SafetyFilter::with_rules(&limits, settings, defect).unwrap();
     let n = start.len();
     let mut q = start.to_vec();
     let mut applied = vec![0.0; n];
@@ -359,7 +359,7 @@ fn short_fault_campaign_finds_no_violation_in_any_output_mode() {
         duration_s: 2.0,
         ..Default::default()
     };
-    let report = run_campaign(&geometries, &s).unwrap();
+    let report = run_campaign(&geometries, &s, ExactBounds).unwrap();
     for (mode, t) in &report.modes {
         assert_eq!(t.episodes, 40);
         assert!(t.ticks >= 40 * 150, "{mode:?}: {} ticks", t.ticks);
@@ -392,9 +392,8 @@ fn the_fault_campaign_catches_a_broken_filter() {
             seed: 7,
             duration_s: 2.0,
             modes,
-            defect,
         };
-        let report = run_campaign(&geometries, &s).unwrap();
+        let report = run_campaign(&geometries, &s, defect).unwrap();
         for (mode, t) in &report.modes {
             // Without a position bound, position commands are still clamped into the
             // limits (defence in depth): the clamp then shows as acceleration jumps.

@@ -5,7 +5,9 @@
 //! - [`node`]: the node's logic: joint-state and condition validation ([`InputGate`]), the
 //!   control tick `π(q, s)` → safety filter → command ([`NodeCore`]), stale-state handling
 //!   and the status snapshot;
-//! - [`realtime`]: the control thread's real-time settings (SCHED_FIFO, mlockall).
+//! - [`realtime`]: the control thread's real-time settings (SCHED_FIFO, mlockall);
+//! - `faults` (feature `fault-injection`): deliberate filter defects and policy overrides
+//!   for tests and fault campaigns; a node's `NodeCore` never runs them.
 //!
 //! The DDS node, bag replay and the mock robots (crate `crossym-ros`) wrap [`NodeCore`];
 //! everything here is testable without a network, and bag replay drives it bit for bit.
@@ -14,6 +16,8 @@
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
 #![allow(clippy::needless_range_loop)]
 
+#[cfg(feature = "fault-injection")]
+pub mod faults;
 pub mod node;
 pub mod realtime;
 pub mod safety;

@@ -15,24 +15,28 @@ use super::feasibility::feasibility;
 use super::gate::InputGate;
 use super::gate::Inputs;
 use super::rejection::Rejection;
+use super::stage::{OutputStage, PolicyOutput};
 use super::status::StatusCode;
 use super::status::StatusSnapshot;
 use super::status::TickReport;
 use crate::safety::history::{CommandHistory, CommandWindow};
-use crate::safety::{Anchor, Barrier, SafetyFilter, SafetySettings, SafetyStatus};
-
-/// Replaces the policy's output in [`NodeCore::tick`] (fault campaigns): called with the
-/// tick count, the measured `q` and the policy's velocity, which it may overwrite.
-pub type PolicyOverride = Box<dyn FnMut(u64, &[f64], &mut [f64]) + Send>;
+use crate::safety::{
+    Anchor, Barrier, BoundRules, ExactBounds, SafetyFilter, SafetySettings, SafetyStatus,
+};
 
 /// The node's logic: latest inputs, the control tick, the status. See the module docs.
-pub struct NodeCore {
+///
+/// A node runs `NodeCore` = `NodeCore<PolicyOutput, ExactBounds>`: the policy's velocity
+/// through the exact safety filter. Fault campaigns and tests build it with other stages
+/// ([`NodeCore::with_stages`]): an adversarial policy output `O`, deliberately broken bound
+/// rules `R` (feature `fault-injection`).
+pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> {
     cfg: NodeConfig,
     kin: Kinematics,
     kws: KinematicsWorkspace,
     policy: AnyPolicy,
     pws: AnyWorkspace,
-    filter: SafetyFilter,
+    filter: SafetyFilter<R>,
     limits: Vec<JointLimits>,
     n: usize,
     gate: InputGate,
@@ -51,7 +55,7 @@ pub struct NodeCore {
     pos_window: CommandWindow,
     unbounded: Vec<f64>,
     zeros: Vec<f64>,
-    policy_override: Option<PolicyOverride>,
+    output: O,
     // Position modes: times of the last `max_restarts + 1` restarts (ring), the hold after
     // the robot was found not following, and the tracking error's watch.
     restart_times: Vec<f64>,
@@ -95,7 +99,22 @@ impl NodeCore {
         kin: Kinematics,
         policy: impl Into<AnyPolicy>,
         safety: SafetySettings,
+        cfg: NodeConfig,
+    ) -> Result<Self, NodeError> {
+        Self::with_stages(kin, policy, safety, cfg, PolicyOutput, ExactBounds)
+    }
+}
+
+impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
+    /// [`NodeCore::new`] with the output stage `output` between the policy and the filter,
+    /// and the filter's bound rules `rules` (fault campaigns, tests).
+    pub fn with_stages(
+        kin: Kinematics,
+        policy: impl Into<AnyPolicy>,
+        safety: SafetySettings,
         mut cfg: NodeConfig,
+        output: O,
+        rules: R,
     ) -> Result<Self, NodeError> {
         // One source of the safety settings: the tick reads the tracking settings from
         // `cfg`, the filter is built from `safety`.
@@ -144,13 +163,14 @@ impl NodeCore {
             }
         }
         let limits = kin.limits().to_vec();
-        let filter = SafetyFilter::new(
+        let filter = SafetyFilter::with_rules(
             &limits,
             SafetySettings {
                 dt: cfg.period_s,
                 max_state_age_s: cfg.stale_timeout_s,
                 ..safety
             },
+            rules,
         )?;
         let fs = filter.settings();
         validate_tracking(&safety)?;
@@ -204,7 +224,7 @@ impl NodeCore {
             pos_window: CommandWindow::new(n),
             unbounded: vec![f64::INFINITY; n],
             zeros: vec![0.0; n],
-            policy_override: None,
+            output,
             restart_times: vec![f64::NEG_INFINITY; safety.max_restarts as usize + 1],
             restart_head: 0,
             prev_meas_q: vec![0.0; n],
@@ -233,15 +253,10 @@ impl NodeCore {
         })
     }
 
-    /// Replaces (or, with `None`, restores) the policy's output each tick: adversarial
-    /// policies of `crossym stress`. The safety filter still bounds every command.
-    pub fn set_policy_override(&mut self, f: Option<PolicyOverride>) {
-        self.policy_override = f;
-    }
-
-    /// Breaks the safety filter on purpose (tests and `crossym stress --break`).
-    pub fn inject_filter_defect(&mut self, defect: crate::safety::FilterDefect) {
-        self.filter.inject_defect(defect);
+    /// The output stage between the policy and the safety filter (tests replace an
+    /// override through it).
+    pub fn output_stage_mut(&mut self) -> &mut O {
+        &mut self.output
     }
 
     /// The node's settings.
@@ -535,9 +550,7 @@ impl NodeCore {
             self.v_policy.fill(f64::NAN);
             self.infeasible_ticks = self.infeasible_ticks.saturating_add(1);
         }
-        if let Some(f) = self.policy_override.as_mut() {
-            f(self.ticks, q, &mut self.v_policy);
-        }
+        self.output.apply(self.ticks, q, &mut self.v_policy);
         let jac_ok = self.kws.jac.iter().all(|x| x.is_finite());
         let barrier = match self.min_ee_distance {
             Some(d_min) if jac_ok => {

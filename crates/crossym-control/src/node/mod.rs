@@ -35,13 +35,15 @@ mod error;
 mod feasibility;
 mod gate;
 mod rejection;
+mod stage;
 mod status;
 
 pub use self::command::Command;
 pub use self::config::{NodeConfig, OutputMode, TopicNames, Trigger};
-pub use self::core::{NodeCore, PolicyOverride};
+pub use self::core::NodeCore;
 pub use self::error::NodeError;
 pub use self::feasibility::{ConditionFeasibility, Infeasibility};
 pub use self::gate::{InputGate, Inputs, SHUTDOWN_SEQUENCE_BIT};
 pub use self::rejection::Rejection;
+pub use self::stage::{OutputStage, PolicyOutput};
 pub use self::status::{StatusCode, StatusSnapshot, TickReport};

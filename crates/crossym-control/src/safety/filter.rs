@@ -33,6 +33,7 @@ use nalgebra::DMatrix;
 use super::active_set::{self, ActiveSetStatus, ActiveSetWorkspace};
 use super::bounds::{joint_bounds, Horizon};
 use super::history::{CommandHistory, CommandWindow};
+use super::rules::{BoundRules, ExactBounds};
 use crossym_math::kinematics::JointLimits;
 
 /// Settings of the safety filter, validated once.
@@ -206,23 +207,6 @@ pub enum SafetyStatus {
     Braking,
 }
 
-/// A deliberate defect for fault campaigns and tests that must see a broken filter fail.
-/// Never set in the node; [`FilterDefect::None`] is the real filter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[non_exhaustive]
-pub enum FilterDefect {
-    /// The real filter.
-    #[default]
-    None,
-    /// The position bound ignores the state's age, the latency and the commands in flight
-    /// (the filter before issue 16: one period, as if measured now).
-    NoHorizon,
-    /// No position bound at all.
-    NoPositionBound,
-    /// No acceleration bound (the velocity box only).
-    NoAccelerationBound,
-}
-
 /// Where the position bounds of a tick start from.
 #[derive(Debug, Clone, Copy)]
 pub enum Anchor<'a> {
@@ -268,7 +252,11 @@ pub struct Barrier<'a> {
 }
 
 /// Joint-velocity safety filter; setup allocates, [`SafetyFilter::filter`] reuses.
-pub struct SafetyFilter {
+///
+/// `R` is how each joint's bounds are computed: [`ExactBounds`], the rules in the module
+/// docs, unless a test breaks them on purpose (with the `fault-injection` feature,
+/// `crate::faults::FilterDefect`).
+pub struct SafetyFilter<R: BoundRules = ExactBounds> {
     n: usize,
     limits: Vec<JointLimits>,
     settings: SafetySettings,
@@ -288,12 +276,24 @@ pub struct SafetyFilter {
     history: CommandHistory,
     window: CommandWindow,
     vmax: Vec<f64>,
-    defect: FilterDefect,
+    rules: R,
 }
 
 impl SafetyFilter {
     /// Builds the filter for joints with `limits` (every velocity limit finite).
     pub fn new(limits: &[JointLimits], settings: SafetySettings) -> Result<Self, SafetyError> {
+        Self::with_rules(limits, settings, ExactBounds)
+    }
+}
+
+impl<R: BoundRules> SafetyFilter<R> {
+    /// Builds the filter with the bound rules `rules` ([`SafetyFilter::new`]: the exact
+    /// ones).
+    pub fn with_rules(
+        limits: &[JointLimits],
+        settings: SafetySettings,
+        rules: R,
+    ) -> Result<Self, SafetyError> {
         let bad = |field: &'static str, message: String| SafetyError::Setting { field, message };
         let pos = |v: f64| v.is_finite() && v > 0.0;
         if !pos(settings.dt) {
@@ -410,7 +410,7 @@ impl SafetyFilter {
             history: CommandHistory::new(n, capacity),
             window: CommandWindow::new(n),
             vmax: limits.iter().map(|l| l.velocity).collect(),
-            defect: FilterDefect::None,
+            rules,
             limits: limits.to_vec(),
             settings,
             solver,
@@ -445,11 +445,6 @@ impl SafetyFilter {
             *l = if v.is_finite() { v } else { 0.0 };
         }
         self.history.reset_to(&self.last);
-    }
-
-    /// Breaks the filter on purpose (tests and `crossym stress --break`); see [`FilterDefect`].
-    pub fn inject_defect(&mut self, defect: FilterDefect) {
-        self.defect = defect;
     }
 
     /// Bounds of the last tick (lower, upper), rad/s or m/s.
@@ -547,13 +542,10 @@ impl SafetyFilter {
             }
             None => (0.0, 0.0),
         };
-        let since = match self.defect {
-            FilterDefect::NoAccelerationBound => 1e9 * dt,
-            _ => self.since_last(now_s),
-        };
+        let since = self.rules.since(self.since_last(now_s), dt);
         for i in 0..n {
             let h = match measured_at {
-                Some(_) if self.defect != FilterDefect::NoHorizon => Horizon {
+                Some(_) if self.rules.horizon_applies() => Horizon {
                     age,
                     latency: lat,
                     past_max: self.window.past_max[i],
@@ -564,7 +556,7 @@ impl SafetyFilter {
                 _ => Horizon::NOW,
             };
             let mut lim = self.limits[i];
-            if self.defect == FilterDefect::NoPositionBound {
+            if !self.rules.position_bound() {
                 (lim.lower, lim.upper) = (f64::NEG_INFINITY, f64::INFINITY);
             }
             let b = joint_bounds(

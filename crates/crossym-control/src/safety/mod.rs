@@ -11,8 +11,9 @@ pub mod active_set;
 pub mod bounds;
 pub mod filter;
 pub mod history;
+pub mod rules;
 
 pub use filter::{
-    Anchor, Barrier, FilterDefect, SafetyError, SafetyFilter, SafetyReport, SafetySettings,
-    SafetyStatus,
+    Anchor, Barrier, SafetyError, SafetyFilter, SafetyReport, SafetySettings, SafetyStatus,
 };
+pub use rules::{BoundRules, ExactBounds};

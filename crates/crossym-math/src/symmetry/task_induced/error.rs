@@ -76,7 +76,7 @@ pub enum TaskInducedError {
         /// Points drawn.
         attempts: usize,
     },
-    /// A field handed to [`check_fields`] lives on another space than the cost.
+    /// A field handed to [`check_fields`](super::check_fields) lives on another space than the cost.
     #[error("field {index} acts on R^{got}, but the cost is defined on R^{expected}")]
     FieldDimension {
         /// Index of the field.

@@ -40,7 +40,7 @@ pub struct TaskInducedSettings {
     /// Max relative invariance residual `|∇c·X| / (|∇c||X|)` accepted.
     #[serde(default = "default_invariance_tol")]
     pub invariance_tol: f64,
-    /// Max relative closure residual accepted (see [`TaskInducedReport::closure_residual`]).
+    /// Max relative closure residual accepted (see [`TaskInducedReport::closure_residual`](super::TaskInducedReport::closure_residual)).
     #[serde(default = "default_closure_tol")]
     pub closure_tol: f64,
     /// Flow time `T` of the completeness check (flows to `±T`; units of `ξ`).

@@ -6,23 +6,27 @@ use std::collections::VecDeque;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-use crossym_control::safety::FilterDefect;
+use crossym_control::safety::BoundRules;
 use crossym_control::{NodeCore, OutputMode};
 use crossym_io::msg;
 use crossym_math::kinematics::JointLimits;
 
+use super::adversary::AdversaryOutput;
 use super::plan::EpisodePlan;
 use super::robot::SimRobot;
 use super::tally::Tally;
 use super::Geometry;
 
 /// Runs one episode; the tally of its violations.
-pub fn run_episode(
+///
+/// `rules` are the safety filter's bound rules: [`ExactBounds`](crossym_control::safety::ExactBounds)
+/// for the node's own filter, a deliberate defect for a campaign that must catch it.
+pub fn run_episode<R: BoundRules + Clone>(
     geometries: &[Geometry],
     mode: OutputMode,
     seed: u64,
     duration_s: f64,
-    defect: FilterDefect,
+    rules: R,
 ) -> Result<Tally, String> {
     let mut rng = StdRng::seed_from_u64(seed);
     let mut tally = Tally {
@@ -30,7 +34,7 @@ pub fn run_episode(
         ..Default::default()
     };
     let plan = EpisodePlan::draw(geometries, mode, duration_s, &mut rng, &mut tally);
-    let mut core = node_core(&plan, seed, defect)?;
+    let mut core = node_core(&plan, seed, rules)?;
     let tr = &plan.transport;
     let (period, n) = (tr.period, plan.limits.len());
     let (limits, accel) = (&plan.limits, &plan.accel);
@@ -197,8 +201,12 @@ impl CommandStream {
 }
 
 /// The node core of the episode: the plan's limits and settings, the condition sent, the
-/// adversary's override of the policy and the filter defect under test.
-fn node_core(plan: &EpisodePlan, seed: u64, defect: FilterDefect) -> Result<NodeCore, String> {
+/// drawn adversary as its output stage and the filter's bound rules `rules`.
+fn node_core<R: BoundRules>(
+    plan: &EpisodePlan,
+    seed: u64,
+    rules: R,
+) -> Result<NodeCore<AdversaryOutput, R>, String> {
     let g = plan.geometry;
     let kin = g
         .kinematics
@@ -206,9 +214,17 @@ fn node_core(plan: &EpisodePlan, seed: u64, defect: FilterDefect) -> Result<Node
         .with_limits(plan.limits.clone())
         .ok_or("limits of the wrong length")?;
     let safety = plan.node.safety;
-    let mut core = NodeCore::new(kin, g.policy.clone(), safety, plan.node.clone())
-        .map_err(|e| format!("{}: {e}", g.name))?;
-    core.inject_filter_defect(defect);
+    let vmax: Vec<f64> = plan.limits.iter().map(|l| l.velocity).collect();
+    let output = AdversaryOutput::new(plan.adversary, vmax, plan.signs.clone(), seed);
+    let mut core = NodeCore::with_stages(
+        kin,
+        g.policy.clone(),
+        safety,
+        plan.node.clone(),
+        output,
+        rules,
+    )
+    .map_err(|e| format!("{}: {e}", g.name))?;
     let c = plan.condition;
     let _ = core.on_condition(&msg::SymmetryCondition {
         header: msg::Header::default(),
@@ -216,12 +232,5 @@ fn node_core(plan: &EpisodePlan, seed: u64, defect: FilterDefect) -> Result<Node
         scale: c.scale,
         reflection: c.reflection,
     });
-    let vmax: Vec<f64> = plan.limits.iter().map(|l| l.velocity).collect();
-    if let Some(f) = plan
-        .adversary
-        .policy_override(vmax, plan.signs.clone(), seed)
-    {
-        core.set_policy_override(Some(f));
-    }
     Ok(core)
 }

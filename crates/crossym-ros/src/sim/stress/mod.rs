@@ -1,5 +1,5 @@
 //! Fault campaign (`crossym stress`): randomized closed-loop episodes of the node's core
-//! ([`NodeCore`], no DDS) and a simulated robot, counting every limit violation.
+//! ([`NodeCore`](crossym_control::NodeCore), no DDS) and a simulated robot, counting every limit violation.
 //!
 //! The robot here is independent of the node and of [`super::MockHardware`]: it keeps time
 //! in integer microseconds, integrates velocity commands exactly (piecewise constant
@@ -31,7 +31,7 @@ mod tally;
 
 use rayon::prelude::*;
 
-use crossym_control::safety::FilterDefect;
+use crossym_control::safety::BoundRules;
 use crossym_control::{NodeConfig, OutputMode};
 use crossym_learn::policy::Policy;
 use crossym_math::kinematics::Kinematics;
@@ -67,8 +67,6 @@ pub struct StressSettings {
     pub modes: Vec<OutputMode>,
     /// Simulated time per episode (s).
     pub duration_s: f64,
-    /// A deliberate filter defect (tests that must see the campaign fail).
-    pub defect: FilterDefect,
 }
 
 impl Default for StressSettings {
@@ -82,7 +80,6 @@ impl Default for StressSettings {
                 OutputMode::Trajectory,
             ],
             duration_s: 3.0,
-            defect: FilterDefect::None,
         }
     }
 }
@@ -113,8 +110,14 @@ pub fn episode_seed(seed: u64, m: usize, k: usize) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Runs the campaign over `geometries` (episodes in parallel).
-pub fn run_campaign(geometries: &[Geometry], s: &StressSettings) -> Result<StressReport, String> {
+/// Runs the campaign over `geometries` (episodes in parallel) with the safety filter's bound
+/// rules `rules`: [`ExactBounds`](crossym_control::safety::ExactBounds), the node's own, or
+/// a deliberate defect (feature `fault-injection` of crossym-control) the campaign must catch.
+pub fn run_campaign<R: BoundRules + Clone + Send + Sync>(
+    geometries: &[Geometry],
+    s: &StressSettings,
+    rules: R,
+) -> Result<StressReport, String> {
     if geometries.is_empty() {
         return Err("no geometry to run".into());
     }
@@ -124,7 +127,7 @@ pub fn run_campaign(geometries: &[Geometry], s: &StressSettings) -> Result<Stres
             .into_par_iter()
             .map(|k| {
                 let seed = episode_seed(s.seed, m, k);
-                run_episode(geometries, mode, seed, s.duration_s, s.defect)
+                run_episode(geometries, mode, seed, s.duration_s, rules.clone())
             })
             .collect();
         let mut total = Tally::default();
