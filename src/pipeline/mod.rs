@@ -302,7 +302,7 @@ pub fn load_any_policy(
         path: file.to_path_buf(),
         message,
     };
-    let any = AnyPolicy::new(policy, kin).map_err(bad)?;
+    let any = AnyPolicy::new(policy, kin).map_err(|e| bad(e.to_string()))?;
     if let Some(head) = any.task_head() {
         let want = group_map(cfg, kin, SubGroup::MRT)?;
         let own = head.map();

@@ -205,7 +205,11 @@ fn task_feature_policy_trains_saves_loads_and_checks_its_robot() {
         .unwrap()
         .check_kinematics(&kin2)
         .unwrap_err();
-    assert!(e.contains("another robot geometry"), "{e}");
+    assert!(
+        matches!(&e, crossym::policy::PolicyFitError::Robot { message }
+            if message.contains("another robot geometry")),
+        "{e:?}"
+    );
 
     // A broken sidecar names the field.
     let side = crossym::policy::sidecar_path(&path);

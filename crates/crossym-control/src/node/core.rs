@@ -122,7 +122,9 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         cfg.validate()?;
         let policy = match policy.into() {
             AnyPolicy::Plain(p) if p.meta.canonicalised.is_some() || p.meta.task_head.is_some() => {
-                AnyPolicy::new(*p, &kin).map_err(|message| NodeError::Policy { message })?
+                AnyPolicy::new(*p, &kin).map_err(|message| NodeError::Policy {
+                    message: message.to_string(),
+                })?
             }
             other => other,
         };
@@ -148,7 +150,9 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         }
         if let Some(t) = policy.network().task_features() {
             t.check_kinematics(&kin)
-                .map_err(|message| NodeError::Policy { message })?;
+                .map_err(|message| NodeError::Policy {
+                    message: message.to_string(),
+                })?;
         }
         if safety.min_ee_distance.is_some() {
             let c = kin.chains();

@@ -6,6 +6,7 @@
 //! (evaluation, rollout, the node, replay) goes through [`AnyPolicy`].
 
 use super::equivariant::{EquivariantPolicy, EquivariantWorkspace};
+use super::error::PolicyFitError;
 use super::mlp::{Policy, PolicyWorkspace};
 use super::task_head::{TaskHeadPolicy, TaskHeadWorkspace};
 use crossym_math::kinematics::Kinematics;
@@ -58,7 +59,12 @@ impl AnyPolicy {
     /// a task-space map ([`super::PolicyMeta::task_head`]), canonicalised through `kin`
     /// when it records a composition ([`super::PolicyMeta::canonicalised`]), plain
     /// otherwise.
-    pub fn new(policy: Policy, kin: &Kinematics) -> Result<Self, String> {
+    pub fn new(policy: Policy, kin: &Kinematics) -> Result<Self, PolicyFitError> {
+        Self::new_inner(policy, kin).map_err(PolicyFitError::robot)
+    }
+
+    // The checks of [`Self::new`], failing with a message.
+    fn new_inner(policy: Policy, kin: &Kinematics) -> Result<Self, String> {
         if let Some(map) = policy.meta.task_head.clone() {
             if policy.meta.canonicalised.is_some() {
                 return Err("a policy file cannot be both a task head and canonicalised".into());
@@ -108,7 +114,13 @@ impl AnyPolicy {
     /// Refuses a canonicalised policy whose composition is not `config`'s (a policy
     /// canonicalised for another robot, another centre of rotation, another order);
     /// a plain policy passes.
-    pub fn check_composition(&self, config: &ComposedSpec) -> Result<(), String> {
+    pub fn check_composition(&self, config: &ComposedSpec) -> Result<(), PolicyFitError> {
+        self.check_composition_inner(config)
+            .map_err(PolicyFitError::composition)
+    }
+
+    // The checks of [`Self::check_composition`], failing with a message.
+    fn check_composition_inner(&self, config: &ComposedSpec) -> Result<(), String> {
         match self.composition() {
             None => Ok(()),
             Some(own) => own.same_composition(config).map_err(|e| {

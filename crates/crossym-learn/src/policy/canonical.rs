@@ -24,6 +24,7 @@
 //! carries its own FK and needs no URDF at run time. Everything per call is
 //! allocation-free, with a caller-owned [`TaskFeatureWorkspace`].
 
+use super::error::PolicyFitError;
 use serde::{Deserialize, Serialize};
 
 use crossym_math::kinematics::{Chain, ChainFactors, ChainWorkspace, Kinematics};
@@ -96,6 +97,15 @@ impl TaskFeatures {
         kin: &Kinematics,
         built: &[BuiltSymmetry],
         order: &[String],
+    ) -> Result<Self, PolicyFitError> {
+        Self::for_robot_inner(kin, built, order).map_err(PolicyFitError::robot)
+    }
+
+    // The checks of [`Self::for_robot`], failing with a message.
+    fn for_robot_inner(
+        kin: &Kinematics,
+        built: &[BuiltSymmetry],
+        order: &[String],
     ) -> Result<Self, String> {
         let map = CanonicalMap::from_symmetries(kin, built, order)?;
         let chains = kin
@@ -108,12 +118,12 @@ impl TaskFeatures {
             })
             .collect();
         let m = map.dim;
-        Self::new(TaskFeatureSpec {
+        Ok(Self::new(TaskFeatureSpec {
             chains,
             map,
             mean: vec![0.0; m],
             std: vec![1.0; m],
-        })
+        })?)
     }
 
     /// Keeps only the factors of the sub-group the policy is trained on (`Original`: none,
@@ -134,7 +144,12 @@ impl TaskFeatures {
     }
 
     /// Rebuilds the chains of `spec` and checks it; says what is wrong.
-    pub fn new(spec: TaskFeatureSpec) -> Result<Self, String> {
+    pub fn new(spec: TaskFeatureSpec) -> Result<Self, PolicyFitError> {
+        Self::new_inner(spec).map_err(PolicyFitError::features)
+    }
+
+    // The checks of [`Self::new`], failing with a message.
+    fn new_inner(spec: TaskFeatureSpec) -> Result<Self, String> {
         spec.map.validate().map_err(|e| format!("map: {e}"))?;
         let m = spec.map.dim;
         let chains: Vec<Chain> = spec
@@ -191,7 +206,13 @@ impl TaskFeatures {
 
     /// Checks that the stored FK is `kin`'s: same task dimension and the same `f(q)` to
     /// 1e-9 (m) at zero and at 16 pseudo-random configurations within ±π; says where not.
-    pub fn check_kinematics(&self, kin: &Kinematics) -> Result<(), String> {
+    pub fn check_kinematics(&self, kin: &Kinematics) -> Result<(), PolicyFitError> {
+        self.check_kinematics_inner(kin)
+            .map_err(PolicyFitError::robot)
+    }
+
+    // The checks of [`Self::check_kinematics`], failing with a message.
+    fn check_kinematics_inner(&self, kin: &Kinematics) -> Result<(), String> {
         if kin.task_dim() != self.dim() || kin.dof() < self.joints_read() {
             return Err(format!(
                 "the policy's FK reads {} joints into {} task coordinates, the robot has {} \
@@ -330,6 +351,14 @@ impl TaskFeatures {
     /// Fits the normalisation of `x̃` over every sample of `data` (mean and std, floored at
     /// [`super::STD_FLOOR`]).
     pub fn fit<'a>(
+        &mut self,
+        data: impl IntoIterator<Item = (&'a crate::data::letters::JointTrajectory, Condition)>,
+    ) -> Result<(), PolicyFitError> {
+        self.fit_inner(data).map_err(PolicyFitError::robot)
+    }
+
+    // The checks of [`Self::fit`], failing with a message.
+    fn fit_inner<'a>(
         &mut self,
         data: impl IntoIterator<Item = (&'a crate::data::letters::JointTrajectory, Condition)>,
     ) -> Result<(), String> {

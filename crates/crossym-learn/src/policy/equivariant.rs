@@ -10,6 +10,7 @@
 //! `f(q_s(t)) = g · f(q_e(t))` (the lifted flows are `f`-related), for every condition
 //! whose flows are feasible from the current state — not only a training grid.
 
+use super::error::PolicyFitError;
 use super::mlp::{Policy, PolicyWorkspace};
 use crossym_math::symmetry::compose::Condition;
 use crossym_math::symmetry::transfer::composed::{ComposedError, ComposedLift, ComposedWorkspace};
@@ -41,7 +42,12 @@ impl EquivariantWorkspace {
 impl EquivariantPolicy {
     /// `π₀` (evaluated at the identity condition) and the composed action it is
     /// canonicalised by; the policy must drive the lift's robot.
-    pub fn new(base: Policy, lift: ComposedLift) -> Result<Self, String> {
+    pub fn new(base: Policy, lift: ComposedLift) -> Result<Self, PolicyFitError> {
+        Self::new_inner(base, lift).map_err(PolicyFitError::robot)
+    }
+
+    // The checks of [`Self::new`], failing with a message.
+    fn new_inner(base: Policy, lift: ComposedLift) -> Result<Self, String> {
         if base.dim() != lift.kinematics().dof() {
             return Err(format!(
                 "the policy drives {} joints, the robot has {}",

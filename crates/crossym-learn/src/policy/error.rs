@@ -123,3 +123,58 @@ impl From<candle_core::Error> for PolicyError {
         }
     }
 }
+
+/// Why a policy cannot be built or used as given (in memory, whatever file it came from):
+/// its network, its input features, its fit to a robot, or its composition. The message
+/// says what is wrong; the variant says where.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PolicyFitError {
+    /// The network's architecture or weights are inconsistent (widths, shapes, non-finite
+    /// values, ensemble members that differ).
+    #[error("{message}")]
+    Network {
+        /// What is wrong.
+        message: String,
+    },
+    /// The input features are inconsistent (normaliser, canonical task features).
+    #[error("{message}")]
+    Features {
+        /// What is wrong.
+        message: String,
+    },
+    /// The policy does not fit the robot's kinematics (joints, chains, FK, task space).
+    #[error("{message}")]
+    Robot {
+        /// What is wrong.
+        message: String,
+    },
+    /// The policy's composition is not the one required.
+    #[error("{message}")]
+    Composition {
+        /// What differs.
+        message: String,
+    },
+}
+
+impl PolicyFitError {
+    pub(crate) fn network(message: String) -> Self {
+        Self::Network { message }
+    }
+    pub(crate) fn features(message: String) -> Self {
+        Self::Features { message }
+    }
+    pub(crate) fn robot(message: String) -> Self {
+        Self::Robot { message }
+    }
+    pub(crate) fn composition(message: String) -> Self {
+        Self::Composition { message }
+    }
+}
+
+/// Inside the policy module's own checks, which build messages.
+impl From<PolicyFitError> for String {
+    fn from(e: PolicyFitError) -> Self {
+        e.to_string()
+    }
+}

@@ -21,6 +21,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::PolicyError;
+use super::error::PolicyFitError;
 use crate::data::letters::JointTrajectory;
 use crossym_math::symmetry::compose::Condition;
 
@@ -104,7 +105,9 @@ impl Normalizer {
             out.v_scale[j] = (v_sq[j] / c).sqrt().max(STD_FLOOR);
         }
         if let Err(message) = out.validate() {
-            return Err(PolicyError::Data { message });
+            return Err(PolicyError::Data {
+                message: message.to_string(),
+            });
         }
         Ok(out)
     }
@@ -120,7 +123,12 @@ impl Normalizer {
     }
 
     /// Checks equal lengths, finite means and positive finite scales; says what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), PolicyFitError> {
+        self.validate_inner().map_err(PolicyFitError::features)
+    }
+
+    // The checks of [`Self::validate`], failing with a message.
+    fn validate_inner(&self) -> Result<(), String> {
         let n = self.q_mean.len();
         if n == 0 {
             return Err("normaliser has zero joints".into());

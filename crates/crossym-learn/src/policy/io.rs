@@ -193,14 +193,16 @@ impl Policy {
         };
         sc.normalizer
             .validate()
-            .map_err(|m| invalid("normalizer", m))?;
-        sc.mlp.validate().map_err(|m| invalid("mlp", m))?;
+            .map_err(|m| invalid("normalizer", m.to_string()))?;
+        sc.mlp
+            .validate()
+            .map_err(|m| invalid("mlp", m.to_string()))?;
         let task = sc
             .task_features
             .clone()
             .map(TaskFeatures::new)
             .transpose()
-            .map_err(|m| invalid("task_features", m))?;
+            .map_err(|m| invalid("task_features", m.to_string()))?;
         let n = sc.normalizer.dim();
         let input = sc.normalizer.input_dim() + task.as_ref().map_or(0, TaskFeatures::dim);
         if sc.mlp.input != input || sc.mlp.output != n {
@@ -258,7 +260,7 @@ impl Policy {
         let mlp = MlpInference::new(sc.mlp.clone(), weights, biases).map_err(|message| {
             PolicyError::Weights {
                 path: weights_path.clone(),
-                message,
+                message: message.to_string(),
             }
         })?;
         let meta = PolicyMeta {

@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::activation::Activation;
 use super::canonical::{TaskFeatureWorkspace, TaskFeatures};
 use super::error::PolicyError;
+use super::error::PolicyFitError;
 use super::features::{encode_condition, Normalizer, CONDITION_FEATURES};
 use super::train_config::TrainConfig;
 use crossym_math::symmetry::compose::Condition;
@@ -93,7 +94,12 @@ impl MlpSpec {
     }
 
     /// Checks that every width is positive; says what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), PolicyFitError> {
+        self.validate_inner().map_err(PolicyFitError::network)
+    }
+
+    // The checks of [`Self::validate`], failing with a message.
+    fn validate_inner(&self) -> Result<(), String> {
         if self.input == 0 || self.output == 0 {
             return Err(format!(
                 "input {} and output {} widths must be positive",
@@ -193,6 +199,15 @@ impl MlpInference {
         spec: MlpSpec,
         weights: Vec<Vec<f64>>,
         biases: Vec<Vec<f64>>,
+    ) -> Result<Self, PolicyFitError> {
+        Self::new_inner(spec, weights, biases).map_err(PolicyFitError::network)
+    }
+
+    // The checks of [`Self::new`], failing with a message.
+    fn new_inner(
+        spec: MlpSpec,
+        weights: Vec<Vec<f64>>,
+        biases: Vec<Vec<f64>>,
     ) -> Result<Self, String> {
         spec.validate()?;
         let l = spec.num_layers();
@@ -242,7 +257,12 @@ impl MlpInference {
     /// (an ensemble as a plain MLP): the first layers stacked, the hidden layers block
     /// diagonal, the output layer `[W_1 … W_K] / K` with the mean bias, so hidden widths
     /// are `K ×` the members'. Members must share input, output, depth and activation.
-    pub fn average(members: &[MlpInference]) -> Result<Self, String> {
+    pub fn average(members: &[MlpInference]) -> Result<Self, PolicyFitError> {
+        Self::average_inner(members).map_err(PolicyFitError::network)
+    }
+
+    // The checks of [`Self::average`], failing with a message.
+    fn average_inner(members: &[MlpInference]) -> Result<Self, String> {
         let Some(first) = members.first() else {
             return Err("an average of no networks".into());
         };
@@ -311,7 +331,7 @@ impl MlpInference {
             weights.push(w);
             biases.push(b);
         }
-        Self::new(spec, weights, biases)
+        Ok(Self::new(spec, weights, biases)?)
     }
 
     /// The architecture.
@@ -620,7 +640,7 @@ impl Policy {
             )));
         }
         let nets: Vec<MlpInference> = members.iter().map(|p| p.mlp.clone()).collect();
-        let mlp = MlpInference::average(&nets).map_err(bad)?;
+        let mlp = MlpInference::average(&nets).map_err(|e| bad(e.to_string()))?;
         Self::with_task_features(
             first.normalizer.clone(),
             mlp,
@@ -685,7 +705,7 @@ impl Policy {
         };
         self.normalizer
             .validate()
-            .map_err(|m| invalid("normalizer", m))?;
+            .map_err(|m| invalid("normalizer", m.to_string()))?;
         let n = self.normalizer.dim();
         let spec = self.mlp.spec();
         if let Some(t) = &self.task {

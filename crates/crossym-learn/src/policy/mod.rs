@@ -43,7 +43,7 @@ pub use any::{AnyPolicy, AnyWorkspace};
 pub use canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatureWorkspace, TaskFeatures};
 pub use domain::{ConditionDomain, DomainViolation};
 pub use equivariant::{EquivariantPolicy, EquivariantWorkspace};
-pub use error::PolicyError;
+pub use error::{PolicyError, PolicyFitError};
 pub use features::{encode_condition, Normalizer, CONDITION_FEATURES, STD_FLOOR};
 pub use io::{sidecar_path, FORMAT, FORMAT_VERSION};
 pub use mlp::{

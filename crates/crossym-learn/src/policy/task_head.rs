@@ -24,6 +24,7 @@
 //! [`super::MlpInference`]), and allocates nothing.
 
 use super::canonical::CanonicalMap;
+use super::error::PolicyFitError;
 use super::mlp::{Policy, PolicyWorkspace};
 use crate::data::letters::JointTrajectory;
 use crossym_math::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
@@ -88,7 +89,12 @@ pub struct TaskHeadWorkspace {
 impl TaskHeadPolicy {
     /// `h` (a network over `X = R^m`, evaluated at the identity condition, named by
     /// [`task_coordinate_names`]), the group's action on `X`, and the robot it is lifted to.
-    pub fn new(head: Policy, map: CanonicalMap, kin: &Kinematics) -> Result<Self, String> {
+    pub fn new(head: Policy, map: CanonicalMap, kin: &Kinematics) -> Result<Self, PolicyFitError> {
+        Self::new_inner(head, map, kin).map_err(PolicyFitError::robot)
+    }
+
+    // The checks of [`Self::new`], failing with a message.
+    fn new_inner(head: Policy, map: CanonicalMap, kin: &Kinematics) -> Result<Self, String> {
         map.validate().map_err(|e| format!("task head map: {e}"))?;
         let m = kin.task_dim();
         if map.dim != m || head.dim() != m {

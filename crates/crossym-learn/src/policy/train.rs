@@ -86,7 +86,7 @@ impl CandleMlp {
     pub fn init(spec: &MlpSpec, seed: u64) -> Result<Self, PolicyError> {
         spec.validate().map_err(|message| PolicyError::Config {
             field: "hidden".into(),
-            message,
+            message: message.to_string(),
         })?;
         let mut rng = StdRng::seed_from_u64(seed);
         let mut weights = Vec::new();
@@ -567,7 +567,9 @@ pub fn train_with_features(
     }
     if let Some(f) = features.as_mut() {
         f.fit(data.iter().map(|(t, s)| (*t, *s)))
-            .map_err(|message| PolicyError::Data { message })?;
+            .map_err(|message| PolicyError::Data {
+                message: message.to_string(),
+            })?;
     }
     let h = config.horizon;
     let stride = config.stride;
