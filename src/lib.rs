@@ -13,15 +13,17 @@
 //!
 //! | floor | crate | modules (re-exported here) |
 //! |---|---|---|
-//! | 5 app | `crossym` | [`config`], [`pipeline`], the CLI |
+//! | 5 app | `crossym` | [`config`], [`setup`], [`pipeline`], [`demo`], the CLI |
 //! | 4 ROS 2 | [`crossym_ros`] | [`ros`] (DDS node, log, replay), [`sim`] (mock hardware, physics robot, stress) |
 //! | 3 control | [`crossym_control`] | [`control`] (node core, real-time settings), [`safety`] |
 //! | 2 learning | [`crossym_learn`] | [`data`], [`policy`], [`eval`] |
 //! | 1 maths, formats | [`crossym_math`], [`crossym_io`] | [`kinematics`], [`symmetry`]; [`msg`], [`msgdef`], [`bag`] |
 //!
 //! Here only what needs a config file: [`config`] (TOML, validated once at startup),
-//! [`setup`] (the floors' objects built from a config) and [`pipeline`] (demonstrations →
-//! augmentation → training → evaluation, as library calls).
+//! [`setup`] (the floors' objects built from a config, with the command line's
+//! overrides), [`pipeline`] (demonstrations → augmentation → training → evaluation, as
+//! library calls) and [`demo`] (the closed loop of `crossym demo`: mock hardware and node
+//! as processes, the conditions published over DDS, the report).
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
@@ -36,5 +38,6 @@ pub use crossym_ros as ros;
 pub use crossym_ros::sim;
 
 pub mod config;
+pub mod demo;
 pub mod pipeline;
 pub mod setup;

@@ -1,11 +1,14 @@
-//! The floors' objects built from a config file: the node core ([`node_core`]) and the
-//! stress campaign's robot ([`stress_geometry`]). The floors below take plain values; only
-//! this crate reads config files.
+//! The floors' objects built from a config file: the node's settings with the command
+//! line's overrides ([`node_config`]), the node core ([`node_core`], [`build_core`]), a
+//! symmetry condition from its text ([`parse_condition`]) and the stress campaign's robot
+//! ([`stress_geometry`]). The floors below take plain values; only this crate reads config
+//! files.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use crossym_control::{NodeConfig, NodeCore, NodeError};
+use crossym_control::{NodeConfig, NodeCore, NodeError, OutputMode, Severity, Trigger};
 use crossym_learn::policy::{Policy, PolicyError};
+use crossym_math::symmetry::compose::Condition;
 use crossym_ros::sim::stress::Geometry;
 
 use crate::config::{Config, ConfigError};
@@ -49,6 +52,133 @@ pub enum NodeSetupError {
         #[from]
         source: NodeError,
     },
+}
+
+/// Overrides of `[node]` (the command line's `--policy`, `--name`, …); `None` keeps the
+/// config's value.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NodeOverrides {
+    /// Policy file (`.safetensors`, `.json` sidecar beside it); overrides `[node] policy`.
+    pub policy: Option<PathBuf>,
+    /// Node name.
+    pub name: Option<String>,
+    /// Node namespace (starts with `/`).
+    pub namespace: Option<String>,
+    /// Command output.
+    pub output: Option<OutputMode>,
+    /// Tick trigger.
+    pub trigger: Option<Trigger>,
+    /// Control period (s).
+    pub period_s: Option<f64>,
+    /// Command topic.
+    pub command_topic: Option<String>,
+    /// Stale timeout for joint states (s).
+    pub stale_timeout_s: Option<f64>,
+    /// Console and /rosout log level (default: a `crossym=LEVEL` or bare level in
+    /// `RUST_LOG`, else `[node] log_level`).
+    pub log_level: Option<Severity>,
+}
+
+/// `[node]` of `cfg` ([`Config::node_config`], policy path resolved) with the overrides `o`
+/// applied and validated. The log level falls back to `RUST_LOG` (a `crossym=LEVEL` or bare
+/// level) before `[node] log_level`.
+pub fn node_config(cfg: &Config, o: &NodeOverrides) -> Result<NodeConfig, NodeError> {
+    let mut n = cfg.node_config();
+    if let Some(p) = &o.policy {
+        n.policy = Some(p.clone());
+    }
+    if let Some(v) = &o.name {
+        n.name = v.clone();
+    }
+    if let Some(v) = &o.namespace {
+        n.namespace = v.clone();
+    }
+    if let Some(v) = o.output {
+        n.output = v;
+    }
+    if let Some(v) = o.trigger {
+        n.trigger = v;
+    }
+    if let Some(v) = o.period_s {
+        n.period_s = v;
+    }
+    if let Some(v) = &o.command_topic {
+        n.topics.command = v.clone();
+    }
+    if let Some(v) = o.stale_timeout_s {
+        n.stale_timeout_s = v;
+    }
+    if let Some(l) = o.log_level.or_else(|| {
+        std::env::var("RUST_LOG")
+            .ok()
+            .and_then(|v| Severity::from_rust_log(&v))
+    }) {
+        n.log_level = l;
+    }
+    n.validate()?;
+    Ok(n)
+}
+
+/// The config file at `path` and the node core it builds with the overrides `o`
+/// ([`node_config`], then [`node_core`]).
+pub fn build_core(path: &Path, o: &NodeOverrides) -> Result<(Config, NodeCore), NodeSetupError> {
+    let cfg = Config::from_file(path)?;
+    let n = node_config(&cfg, o)?;
+    let core = node_core(&cfg, n)?;
+    Ok((cfg, core))
+}
+
+/// Why the text of a symmetry condition (`theta_rad:scale:reflection`) was refused.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConditionError {
+    /// Not three `:`-separated fields.
+    #[error("--condition `{text}`: expected theta_rad:scale:reflection")]
+    Format {
+        /// The text given.
+        text: String,
+    },
+    /// A field is not a number.
+    #[error("{field} in `{text}`: {message}")]
+    Number {
+        /// `theta`, `scale` or `reflection`.
+        field: &'static str,
+        /// The text given.
+        text: String,
+        /// The parser's message.
+        message: String,
+    },
+    /// The numbers do not form a valid condition ([`Condition::validate`]).
+    #[error("--condition `{text}`: {message}")]
+    Invalid {
+        /// The text given.
+        text: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Parses `theta_rad:scale:reflection` (e.g. `0.5236:0.8:-1`) into a validated condition.
+pub fn parse_condition(text: &str) -> Result<Condition, ConditionError> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let [theta, scale, reflection] = parts[..] else {
+        return Err(ConditionError::Format { text: text.into() });
+    };
+    let number = |field: &'static str, e: &dyn std::fmt::Display| ConditionError::Number {
+        field,
+        text: text.into(),
+        message: e.to_string(),
+    };
+    let c = Condition {
+        theta: theta.parse().map_err(|e| number("theta", &e))?,
+        scale: scale.parse().map_err(|e| number("scale", &e))?,
+        reflection: reflection.parse().map_err(|e| number("reflection", &e))?,
+    };
+    c.validate().map_err(|message| ConditionError::Invalid {
+        text: text.into(),
+        message,
+    })?;
+    Ok(c)
 }
 
 /// Builds the node of a config file: `cfg`'s robot, the policy `node.policy` (already

@@ -3,7 +3,7 @@
 //! smallest limit margin), figures of the task-space paths and the first demonstration's
 //! joint positions.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -53,7 +53,7 @@ fn peak_and_margin(
 }
 
 /// `crossym demos`. Exits 1 when a source was refused.
-pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: &DemosArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(&a.config)?;
     let dcfg = cfg
         .demonstrations
@@ -95,40 +95,7 @@ pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
     };
     let mut number = 1;
     for s in &all.sources {
-        match &s.detail {
-            SourceDetail::Tracked { max_tracking_error } => println!(
-                "{} ({}): {} demonstration{} tracked into joint space, max tracking error {:.3e} (task units)",
-                s.name,
-                s.kind.label(),
-                s.demos.len(),
-                if s.demos.len() == 1 { "" } else { "s" },
-                max_tracking_error
-            ),
-            SourceDetail::Recorded(r) => {
-                let rep = &r.report;
-                println!(
-                    "{} ({}): {} ({} samples over {:.2} s, largest stamp step {:.1} ms) → {} demonstration{}, idle trimmed {:.2} s / {:.2} s{}",
-                    s.name,
-                    s.kind.label(),
-                    r.file.display(),
-                    r.raw.0,
-                    r.raw.1,
-                    rep.max_gap_s * 1e3,
-                    rep.segments,
-                    if rep.segments == 1 { "" } else { "s" },
-                    rep.trimmed_s.0,
-                    rep.trimmed_s.1,
-                    if rep.outside_limits > 0 {
-                        format!("; {} samples OUTSIDE the joint limits", rep.outside_limits)
-                    } else {
-                        String::new()
-                    }
-                );
-                if !r.ignored.is_empty() {
-                    println!("  ignored joints: {}", r.ignored.join(", "));
-                }
-            }
-        }
+        print_source(s);
         for (k, (dn, d)) in s.demos.iter().enumerate() {
             // With a refused source numbers shift: roles by name only.
             let named = |picks: &[Pick]| {
@@ -171,54 +138,104 @@ pub fn demos(a: &DemosArgs) -> anyhow::Result<ExitCode> {
         }
     }
     if let Some(dir) = &a.plot {
-        anyhow::ensure!(!all.demos.is_empty(), "no demonstration to plot");
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let m = kin.task_dim();
-        let panels: Vec<PathPanel> = all
-            .demos
-            .iter()
-            .map(|d| {
-                PathPanel::single(
-                    m,
-                    kin.chains().first().map_or(2, |c| c.task.dim()),
-                    cfg.eval.view.unwrap_or(XY_VIEW),
-                    Vec::new(),
-                    d.x.clone(),
-                    format!(
-                        "{} {}: {:.2} s",
-                        d.demo,
-                        all.name(d.demo),
-                        (d.len().max(1) - 1) as f64 * d.dt
-                    ),
-                )
-            })
-            .collect();
-        let fig = PathFigure {
-            executed_name: "demonstration (FK of the joint path)".into(),
-            ..PathFigure::for_robot(format!("Demonstrations on {}", kin.robot), kin, &cfg.eval)
-        };
-        let task = dir.join("demos_task.png");
-        write_paths_grid(&task, &fig, &panels, panels.len().min(4), 360)
-            .map_err(anyhow::Error::msg)?;
-        let d = &all.demos[0];
-        let curves: Vec<Vec<(f64, f64)>> = (0..d.n)
-            .map(|j| (0..d.len()).map(|k| (k as f64 * d.dt, d.q(k)[j])).collect())
-            .collect();
-        let joints = dir.join("demos_joints.png");
-        let cfig = CurveFigure {
-            title: format!("Demonstration 1 ({}): joint positions", all.name(1)),
-            x_desc: "time since the demonstration's start (s)".into(),
-            y_desc: "joint position (rad or m)".into(),
-            names: names.to_vec(),
-            categorical: true,
-            ramp: None,
-        };
-        write_curves_png(&joints, &cfig, &curves, 900, 460).map_err(anyhow::Error::msg)?;
-        println!("wrote {} and {}", task.display(), joints.display());
+        plot(dir, &cfg, kin, &all)?;
     }
     Ok(if refused > 0 {
         ExitCode::FAILURE
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// One source's report line (and its ignored joints).
+fn print_source(s: &SourceDemos) {
+    match &s.detail {
+        SourceDetail::Tracked { max_tracking_error } => println!(
+            "{} ({}): {} demonstration{} tracked into joint space, max tracking error {:.3e} (task units)",
+            s.name,
+            s.kind.label(),
+            s.demos.len(),
+            if s.demos.len() == 1 { "" } else { "s" },
+            max_tracking_error
+        ),
+        SourceDetail::Recorded(r) => {
+            let rep = &r.report;
+            println!(
+                "{} ({}): {} ({} samples over {:.2} s, largest stamp step {:.1} ms) → {} demonstration{}, idle trimmed {:.2} s / {:.2} s{}",
+                s.name,
+                s.kind.label(),
+                r.file.display(),
+                r.raw.0,
+                r.raw.1,
+                rep.max_gap_s * 1e3,
+                rep.segments,
+                if rep.segments == 1 { "" } else { "s" },
+                rep.trimmed_s.0,
+                rep.trimmed_s.1,
+                if rep.outside_limits > 0 {
+                    format!("; {} samples OUTSIDE the joint limits", rep.outside_limits)
+                } else {
+                    String::new()
+                }
+            );
+            if !r.ignored.is_empty() {
+                println!("  ignored joints: {}", r.ignored.join(", "));
+            }
+        }
+    }
+}
+
+/// `--plot`: the task-space paths (one panel per demonstration) and the first
+/// demonstration's joint positions against time.
+fn plot(
+    dir: &Path,
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    all: &Demonstrations,
+) -> anyhow::Result<()> {
+    let names = kin.joint_names();
+    anyhow::ensure!(!all.demos.is_empty(), "no demonstration to plot");
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let m = kin.task_dim();
+    let panels: Vec<PathPanel> = all
+        .demos
+        .iter()
+        .map(|d| {
+            PathPanel::single(
+                m,
+                kin.chains().first().map_or(2, |c| c.task.dim()),
+                cfg.eval.view.unwrap_or(XY_VIEW),
+                Vec::new(),
+                d.x.clone(),
+                format!(
+                    "{} {}: {:.2} s",
+                    d.demo,
+                    all.name(d.demo),
+                    (d.len().max(1) - 1) as f64 * d.dt
+                ),
+            )
+        })
+        .collect();
+    let fig = PathFigure {
+        executed_name: "demonstration (FK of the joint path)".into(),
+        ..PathFigure::for_robot(format!("Demonstrations on {}", kin.robot), kin, &cfg.eval)
+    };
+    let task = dir.join("demos_task.png");
+    write_paths_grid(&task, &fig, &panels, panels.len().min(4), 360).map_err(anyhow::Error::msg)?;
+    let d = &all.demos[0];
+    let curves: Vec<Vec<(f64, f64)>> = (0..d.n)
+        .map(|j| (0..d.len()).map(|k| (k as f64 * d.dt, d.q(k)[j])).collect())
+        .collect();
+    let joints = dir.join("demos_joints.png");
+    let cfig = CurveFigure {
+        title: format!("Demonstration 1 ({}): joint positions", all.name(1)),
+        x_desc: "time since the demonstration's start (s)".into(),
+        y_desc: "joint position (rad or m)".into(),
+        names: names.to_vec(),
+        categorical: true,
+        ramp: None,
+    };
+    write_curves_png(&joints, &cfig, &curves, 900, 460).map_err(anyhow::Error::msg)?;
+    println!("wrote {} and {}", task.display(), joints.display());
+    Ok(())
 }

@@ -6,7 +6,7 @@
 //! of a canonicalised policy (issue 18: trained on the originals only, no rotation grid at
 //! all), flat by construction.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -45,7 +45,7 @@ pub struct DensityArgs {
 }
 
 /// `crossym density`.
-pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: &DensityArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(&a.config)?;
     let mut tc = cfg
         .train
@@ -56,7 +56,7 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
     }
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
-    let demos = super::letter_demos(&cfg, kin)?;
+    let demos = cfg.load_demonstrations(kin)?;
     let (built, _) = crossym::symmetry::check::build(kin, &cfg.symmetries)?;
     let augmenter =
         letter_augmenter(kin, &built, &cfg.composition.order).map_err(anyhow::Error::msg)?;
@@ -72,13 +72,7 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
     let test = augmenter.augment(&demos.select(&demos.test), &test_grid, &|| {});
     anyhow::ensure!(!test.trajectories.is_empty(), "no feasible test trajectory");
     let angles = test_grid.angles();
-    let mut csv = String::from(
-        "train_step_deg,theta_deg,mean_rmse,count,diverged,train_trajectories,final_loss\n",
-    );
-    let mut md = String::from(
-        "| Δθ train (°) | trajectories | mean RMSE over θ | max RMSE over θ | diverged |\n|---|---|---|---|---|\n",
-    );
-    let mut curves = Vec::new();
+    let mut out = Tables::new(a);
     // RMSE per test angle: (θ°, mean, count, diverged).
     let per_angle = |policy: &EvalSet<'_>| {
         angles
@@ -98,15 +92,7 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             .collect::<Vec<_>>()
     };
     let equivariant = match &a.equivariant {
-        Some(p) => {
-            let policy = crossym::pipeline::load_any_policy(&cfg, kin, p)?;
-            anyhow::ensure!(
-                policy.composition().is_some(),
-                "--equivariant {}: not a canonicalised policy (train it with `crossym train --equivariant`)",
-                p.display()
-            );
-            Some(policy)
-        }
+        Some(p) => Some(load_equivariant(&cfg, kin, p)?),
         None => None,
     };
     for (si, &step) in a.steps.iter().enumerate() {
@@ -139,28 +125,86 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
         )?;
         let (policy, report) =
             crossym::policy::train_with_features(&data, &tc, meta, features, |_, _| {})?;
+        let rows = per_angle(&|set| crossym::eval::evaluate(&policy, kin, set, &cfg.eval));
+        let c = curve_colour(si, a.steps.len());
+        out.add_step(step, (c.0, c.1, c.2), data.len(), &report, &rows);
+    }
+    if let Some(policy) = &equivariant {
+        let rows = per_angle(&|set| crossym::eval::evaluate(policy, kin, set, &cfg.eval));
+        out.add_equivariant(&rows, demos.train.len());
+    }
+    out.write(a, &cfg, kin, tc.iterations)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--equivariant P`: the canonicalised policy `P` (refused when plain).
+fn load_equivariant(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    p: &Path,
+) -> anyhow::Result<crossym::eval::AnyPolicy> {
+    let policy = crossym::pipeline::load_any_policy(cfg, kin, p)?;
+    anyhow::ensure!(
+        policy.composition().is_some(),
+        "--equivariant {}: not a canonicalised policy (train it with `crossym train --equivariant`)",
+        p.display()
+    );
+    Ok(policy)
+}
+
+/// What `crossym density` writes: `density.csv`, `density.md`, and the curves of
+/// `density.png` with their names.
+struct Tables {
+    csv: String,
+    md: String,
+    curves: Vec<Vec<(f64, f64)>>,
+    names: Vec<String>,
+}
+
+impl Tables {
+    /// The headers, and one curve name per training step of `a`.
+    fn new(a: &DensityArgs) -> Self {
+        Self {
+            csv: String::from(
+                "train_step_deg,theta_deg,mean_rmse,count,diverged,train_trajectories,final_loss\n",
+            ),
+            md: String::from(
+                "| Δθ train (°) | trajectories | mean RMSE over θ | max RMSE over θ | diverged |\n|---|---|---|---|---|\n",
+            ),
+            curves: Vec::new(),
+            names: a.steps.iter().map(|s| format!("Δθ = {s}°")).collect(),
+        }
+    }
+
+    /// One training step Δθ = `step` (its curve colour, the trajectories trained on, the
+    /// training report) and its rows `(θ°, mean, count, diverged)`.
+    fn add_step(
+        &mut self,
+        step: f64,
+        colour: (u8, u8, u8),
+        trajectories: usize,
+        report: &crossym::policy::TrainReport,
+        rows: &[(f64, f64, usize, usize)],
+    ) {
         let mut curve = Vec::new();
         let (mut sum, mut max, mut div) = (0.0, 0.0f64, 0);
-        for (theta, mean, count, diverged) in
-            per_angle(&|set| crossym::eval::evaluate(&policy, kin, set, &cfg.eval))
-        {
-            csv.push_str(&format!(
+        for &(theta, mean, count, diverged) in rows {
+            self.csv.push_str(&format!(
                 "{step},{theta},{mean},{count},{diverged},{},{}\n",
-                data.len(),
-                report.final_loss
+                trajectories, report.final_loss
             ));
             curve.push((theta, mean));
             sum += mean;
             max = max.max(mean);
             div += diverged;
         }
-        let c = curve_colour(si, a.steps.len());
-        md.push_str(&format!(
+        let c = colour;
+        self.md.push_str(&format!(
             "| {step} (rgb {},{},{}) | {} | {:.3} | {:.3} | {div} |\n",
             c.0,
             c.1,
             c.2,
-            data.len(),
+            trajectories,
             sum / curve.len().max(1) as f64,
             max
         ));
@@ -171,54 +215,70 @@ pub fn density(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             report.seconds,
             sum / curve.len().max(1) as f64
         );
-        curves.push(curve);
+        self.curves.push(curve);
     }
-    let mut names: Vec<String> = a.steps.iter().map(|s| format!("Δθ = {s}°")).collect();
-    if let Some(policy) = &equivariant {
-        let rows = per_angle(&|set| crossym::eval::evaluate(policy, kin, set, &cfg.eval));
-        let n_train = demos.train.len();
-        for (theta, mean, count, diverged) in &rows {
-            csv.push_str(&format!(
+
+    /// The canonicalised policy's rows `(θ°, mean, count, diverged)`, trained on `n_train`
+    /// originals: CSV rows, a table row, a black curve.
+    fn add_equivariant(&mut self, rows: &[(f64, f64, usize, usize)], n_train: usize) {
+        for (theta, mean, count, diverged) in rows {
+            self.csv.push_str(&format!(
                 "eq,{theta},{mean},{count},{diverged},{n_train},\n"
             ));
         }
         let mean = rows.iter().map(|r| r.1).sum::<f64>() / rows.len().max(1) as f64;
         let max = rows.iter().fold(0.0f64, |m, r| m.max(r.1));
         let div: usize = rows.iter().map(|r| r.3).sum();
-        md.push_str(&format!(
+        self.md.push_str(&format!(
             "| π_eq, canonicalised, originals only (black) | {n_train} | {mean:.3} | {max:.3} | {div} |\n"
         ));
         println!("π_eq (canonicalised): mean RMSE over θ {mean:.3}, max {max:.3}");
-        curves.push(rows.iter().map(|r| (r.0, r.1)).collect());
-        names.push("π_eq (originals only)".into());
+        self.curves.push(rows.iter().map(|r| (r.0, r.1)).collect());
+        self.names.push("π_eq (originals only)".into());
     }
-    md.push_str(&format!(
-        "\nFigure `density.png`: RMSE (task units, mean over the test letters; Euclidean with \
-         the arms stacked, per coordinate it is this ÷ √{}) against the test \
-         rotation θ ∈ [−180°, 180°] in steps of {}°, one curve per training step Δθ (colours as \
-         in the table, dark blue = densest); faint vertical lines at the evaluated θ. {} \
-         iterations per policy.\n",
-        kin.task_dim(),
-        a.eval_step,
-        tc.iterations
-    ));
-    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    std::fs::write(a.out.join("density.csv"), &csv)?;
-    std::fs::write(a.out.join("density.md"), &md)?;
-    let fig = CurveFigure {
-        title: format!(
-            "Augmentation density: π_R on {} trained at rotation steps Δθ, tested every {}°",
-            kin.robot, a.eval_step
-        ),
-        x_desc: "test rotation θ (°)".into(),
-        y_desc: format!("RMSE, Euclidean, arms stacked ({})", cfg.eval.units),
-        names,
-        categorical: false,
-        ramp: Some(a.steps.len()),
-    };
-    write_curves_png(&a.out.join("density.png"), &fig, &curves, 900, 460)
-        .map_err(anyhow::Error::msg)?;
-    println!("{md}");
-    println!("wrote {}", a.out.display());
-    Ok(ExitCode::SUCCESS)
+
+    /// The figure's caption into the table, then the files into `--out`.
+    fn write(
+        self,
+        a: &DensityArgs,
+        cfg: &Config,
+        kin: &crossym::kinematics::Kinematics,
+        iterations: usize,
+    ) -> anyhow::Result<()> {
+        let Self {
+            csv,
+            mut md,
+            curves,
+            names,
+        } = self;
+        md.push_str(&format!(
+            "\nFigure `density.png`: RMSE (task units, mean over the test letters; Euclidean with \
+             the arms stacked, per coordinate it is this ÷ √{}) against the test \
+             rotation θ ∈ [−180°, 180°] in steps of {}°, one curve per training step Δθ (colours as \
+             in the table, dark blue = densest); faint vertical lines at the evaluated θ. {} \
+             iterations per policy.\n",
+            kin.task_dim(),
+            a.eval_step,
+            iterations
+        ));
+        std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+        std::fs::write(a.out.join("density.csv"), &csv)?;
+        std::fs::write(a.out.join("density.md"), &md)?;
+        let fig = CurveFigure {
+            title: format!(
+                "Augmentation density: π_R on {} trained at rotation steps Δθ, tested every {}°",
+                kin.robot, a.eval_step
+            ),
+            x_desc: "test rotation θ (°)".into(),
+            y_desc: format!("RMSE, Euclidean, arms stacked ({})", cfg.eval.units),
+            names,
+            categorical: false,
+            ramp: Some(a.steps.len()),
+        };
+        write_curves_png(&a.out.join("density.png"), &fig, &curves, 900, 460)
+            .map_err(anyhow::Error::msg)?;
+        println!("{md}");
+        println!("wrote {}", a.out.display());
+        Ok(())
+    }
 }

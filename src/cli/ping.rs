@@ -24,7 +24,9 @@ use crossym::control::{OutputMode, Trigger};
 use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings};
 
-use super::ros::{node_config, NodeOverrides};
+use crossym::setup::node_config;
+
+use super::common::NodeOverrideArgs;
 
 /// Options of `crossym ping`.
 #[derive(Debug, clap::Args)]
@@ -53,7 +55,7 @@ pub struct PingArgs {
     pub realtime: Option<i32>,
     /// The node's flags, when it was started with some (name, namespace, output, topics).
     #[command(flatten)]
-    pub node: NodeOverrides,
+    pub node: NodeOverrideArgs,
 }
 
 /// Order statistics of round trips (µs).
@@ -90,6 +92,26 @@ enum Replies {
 }
 
 impl Replies {
+    /// Subscribes to the node's commands on `topic`, of the type its `output` publishes.
+    fn subscribe(
+        node: &mut ros2_client::Node,
+        output: OutputMode,
+        topic: &str,
+    ) -> anyhow::Result<Self> {
+        Ok(match output {
+            OutputMode::Trajectory => Self::Trajectory(dds::subscription::<msg::JointTrajectory>(
+                node,
+                topic,
+                dds::qos_reliable(10),
+            )?),
+            _ => Self::Array(dds::subscription::<msg::Float64MultiArray>(
+                node,
+                topic,
+                dds::qos_reliable(10),
+            )?),
+        })
+    }
+
     /// True when a command was waiting.
     fn take(&self) -> bool {
         self.try_info().is_some()
@@ -144,7 +166,7 @@ fn wall_ns() -> i64 {
 }
 
 /// `crossym ping`. Exit 1 when no command answers.
-pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: &PingArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(
         a.rate.is_finite() && a.rate > 0.0,
         "--rate {} must be positive",
@@ -156,7 +178,7 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
         "--reply-timeout-ms must be positive"
     );
     let cfg = Config::from_file(&a.config)?;
-    let n = node_config(&cfg, &a.node)?;
+    let n = node_config(&cfg, &a.node.overrides())?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
     if n.trigger != Trigger::JointStates {
@@ -165,19 +187,7 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
             n.period_s * 1e3
         );
     }
-    // A configuration inside the limits where the policy runs: the mock hardware's start
-    // (`[mock_hw] initial_q`, else `[check] reference_q`), else mid-range. (Mid-range is
-    // q = 0 on the planar arms: stretched out, where a task head's lift is singular and
-    // the node commands zero without running its policy.)
-    let q: Vec<f64> = cfg
-        .start_q()
-        .filter(|q| q.len() == kin.dof())
-        .unwrap_or_else(|| {
-            kin.limits()
-                .iter()
-                .map(|l| 0.5 * (l.lower + l.upper))
-                .collect()
-        });
+    let q = probe_q(&cfg, kin);
     let js_topic = dds::expand_topic(&n.topics.joint_states, &n.namespace, &n.name);
     let cmd_topic = dds::expand_topic(&n.topics.command, &n.namespace, &n.name);
     let ctx = DdsSettings::from_env()?.context()?;
@@ -188,36 +198,10 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
         )
         .map_err(|e| anyhow::anyhow!("DDS node: {e:?}"))?;
     if let Some(p) = a.realtime {
-        let rt = RealtimeConfig {
-            priority: p,
-            lock_memory: true,
-            dds_priority: Some((p - 1).max(1)),
-            cpu_latency_us: None,
-            idle_poll: false,
-        };
-        rt.validate()
-            .map_err(|e| anyhow::anyhow!("--realtime: {e}"))?;
-        // SAFETY: pthread_self has no preconditions.
-        for o in realtime::apply(&rt, unsafe { libc::pthread_self() }) {
-            eprintln!(
-                "crossym ping: {}",
-                o.to_string().replace("control thread", "ping thread")
-            );
-        }
+        apply_realtime(p)?;
     }
     let js_pub = dds::publisher::<msg::JointState>(&mut node, &js_topic, dds::qos_reliable(10))?;
-    let replies = match n.output {
-        OutputMode::Trajectory => Replies::Trajectory(dds::subscription::<msg::JointTrajectory>(
-            &mut node,
-            &cmd_topic,
-            dds::qos_reliable(10),
-        )?),
-        _ => Replies::Array(dds::subscription::<msg::Float64MultiArray>(
-            &mut node,
-            &cmd_topic,
-            dds::qos_reliable(10),
-        )?),
-    };
+    let replies = Replies::subscribe(&mut node, n.output, &cmd_topic)?;
     let names = kin.joint_names().to_vec();
     // Publishes one probe; returns its wall-clock publish time (ns).
     let send = || -> anyhow::Result<i64> {
@@ -242,22 +226,8 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
         "crossym ping: {js_topic} → {cmd_topic}, {} probes at {} Hz",
         a.count, a.rate
     );
-    // Discovery and warm-up: until 20 commands came back.
-    let start = Instant::now();
-    let mut warm = 0;
-    while warm < 20 {
-        if start.elapsed().as_secs_f64() > a.connect_timeout_s {
-            eprintln!(
-                "crossym ping: no command on {cmd_topic} within {} s: is `crossym node` running with this config, the same ROS_DOMAIN_ID and network?",
-                a.connect_timeout_s
-            );
-            return Ok(ExitCode::from(1));
-        }
-        send()?;
-        std::thread::sleep(Duration::from_millis(20));
-        while replies.take() {
-            warm += 1;
-        }
+    if !warm_up(a.connect_timeout_s, &send, &replies, &cmd_topic)? {
+        return Ok(ExitCode::from(1));
     }
     let period = Duration::from_secs_f64(1.0 / a.rate);
     let timeout = Duration::from_secs_f64(a.reply_timeout_ms * 1e-3);
@@ -280,28 +250,15 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
         let answers = |i: &ros2_client::MessageInfo| {
             i.source_timestamp().is_none_or(|t| t.to_nanos() >= sent_ns)
         };
-        let info = loop {
-            let got = if a.busy_wait {
-                loop {
-                    if let Some(i) = replies.try_info() {
-                        break Some(i);
-                    }
-                    if t0.elapsed() > timeout {
-                        break None;
-                    }
-                    std::hint::spin_loop();
-                }
-            } else {
-                let left = timeout.saturating_sub(t0.elapsed());
-                rt.block_on(async { tokio::time::timeout(left, replies.next_info()).await })
-                    .ok()
-                    .flatten()
-            };
-            match got {
-                Some(i) if !answers(&i) => stray += 1,
-                other => break other,
-            }
-        };
+        let info = wait_reply(
+            &replies,
+            &rt,
+            a.busy_wait,
+            t0,
+            timeout,
+            &answers,
+            &mut stray,
+        );
         match info {
             Some(i) => probes.push(Probe::new(
                 t0.elapsed().as_secs_f64() * 1e6,
@@ -312,10 +269,113 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
             None => lost += 1,
         }
     }
+    Ok(report(a, &probes, lost, stray))
+}
+
+/// Discovery and warm-up: probes until 20 commands came back; `false` (and why, printed)
+/// when none came within `connect_timeout_s`.
+fn warm_up(
+    connect_timeout_s: f64,
+    send: &dyn Fn() -> anyhow::Result<i64>,
+    replies: &Replies,
+    cmd_topic: &str,
+) -> anyhow::Result<bool> {
+    let start = Instant::now();
+    let mut warm = 0;
+    while warm < 20 {
+        if start.elapsed().as_secs_f64() > connect_timeout_s {
+            eprintln!(
+                "crossym ping: no command on {cmd_topic} within {connect_timeout_s} s: is `crossym node` running with this config, the same ROS_DOMAIN_ID and network?",
+            );
+            return Ok(false);
+        }
+        send()?;
+        std::thread::sleep(Duration::from_millis(20));
+        while replies.take() {
+            warm += 1;
+        }
+    }
+    Ok(true)
+}
+
+/// `--realtime PRIORITY`: this thread under SCHED_FIFO at `p`, DDS one below, memory
+/// locked; what could not be applied is printed.
+fn apply_realtime(p: i32) -> anyhow::Result<()> {
+    let rt = RealtimeConfig {
+        priority: p,
+        lock_memory: true,
+        dds_priority: Some((p - 1).max(1)),
+        cpu_latency_us: None,
+        idle_poll: false,
+    };
+    rt.validate()
+        .map_err(|e| anyhow::anyhow!("--realtime: {e}"))?;
+    // SAFETY: pthread_self has no preconditions.
+    for o in realtime::apply(&rt, unsafe { libc::pthread_self() }) {
+        eprintln!(
+            "crossym ping: {}",
+            o.to_string().replace("control thread", "ping thread")
+        );
+    }
+    Ok(())
+}
+
+/// A configuration inside the limits where the policy runs: the mock hardware's start
+/// (`[mock_hw] initial_q`, else `[check] reference_q`), else mid-range. (Mid-range is
+/// q = 0 on the planar arms: stretched out, where a task head's lift is singular and
+/// the node commands zero without running its policy.)
+fn probe_q(cfg: &Config, kin: &crossym::kinematics::Kinematics) -> Vec<f64> {
+    cfg.start_q()
+        .filter(|q| q.len() == kin.dof())
+        .unwrap_or_else(|| {
+            kin.limits()
+                .iter()
+                .map(|l| 0.5 * (l.lower + l.upper))
+                .collect()
+        })
+}
+
+/// The command answering the probe sent at `t0` (`answers` tells it from a stray one,
+/// counted in `stray`), waited for up to `timeout` blocked or spinning; `None` when lost.
+fn wait_reply(
+    replies: &Replies,
+    rt: &tokio::runtime::Runtime,
+    busy_wait: bool,
+    t0: Instant,
+    timeout: Duration,
+    answers: &dyn Fn(&ros2_client::MessageInfo) -> bool,
+    stray: &mut usize,
+) -> Option<ros2_client::MessageInfo> {
+    loop {
+        let got = if busy_wait {
+            loop {
+                if let Some(i) = replies.try_info() {
+                    break Some(i);
+                }
+                if t0.elapsed() > timeout {
+                    break None;
+                }
+                std::hint::spin_loop();
+            }
+        } else {
+            let left = timeout.saturating_sub(t0.elapsed());
+            rt.block_on(async { tokio::time::timeout(left, replies.next_info()).await })
+                .ok()
+                .flatten()
+        };
+        match got {
+            Some(i) if !answers(&i) => *stray += 1,
+            other => break other,
+        }
+    }
+}
+
+/// Prints the round trips' order statistics and their parts; exit 1 when all were lost.
+fn report(a: &PingArgs, probes: &[Probe], lost: usize, stray: usize) -> ExitCode {
     let mut rtt: Vec<f64> = probes.iter().map(|p| p.rtt).collect();
     let Some(l) = latency(&mut rtt) else {
         println!("ping: {} probes, all lost", a.count);
-        return Ok(ExitCode::from(1));
+        return ExitCode::from(1);
     };
     println!(
         "ping: {} round trips at {} Hz ({}): median {:.0} µs, p99 {:.0} µs, p99.9 {:.0} µs, max {:.0} µs; {lost} lost (no command within {} ms), {stray} stray commands (published before their probe)",
@@ -346,7 +406,7 @@ pub fn ping(a: &PingArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
-    Ok(ExitCode::SUCCESS)
+    ExitCode::SUCCESS
 }
 
 #[cfg(test)]

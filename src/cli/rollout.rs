@@ -4,14 +4,19 @@
 //! condition (the nominal trajectory of Table II).
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
 use crossym::config::Config;
+use crossym::data::letters::JointTrajectory;
 use crossym::eval::plot::{condition_label, write_paths_png, PathFigure, PathPanel, XY_VIEW};
 use crossym::eval::{nominal_at, rollout, samples_spanning, score_path_timed, RolloutStatus};
+use crossym::kinematics::Kinematics;
+use crossym::pipeline::figures::file_name;
 use crossym::pipeline::nominal_trajectories;
+use crossym::setup::{node_config, parse_condition, NodeOverrides};
+use crossym::symmetry::compose::Condition;
 
 /// Options of `crossym rollout`.
 #[derive(Debug, clap::Args)]
@@ -49,14 +54,14 @@ pub struct RolloutArgs {
 }
 
 /// `crossym rollout`. Exits 1 when the rollout turned non-finite.
-pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(&a.config)?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
-    let (_, condition) = super::parse_condition(&a.condition)?;
+    let condition = parse_condition(&a.condition)?;
     let policy_path = match &a.policy {
         Some(p) => p.clone(),
-        None => super::ros::node_config(&cfg, &super::ros::NodeOverrides::default())?
+        None => node_config(&cfg, &NodeOverrides::default())?
             .policy
             .with_context(|| {
                 format!(
@@ -66,41 +71,7 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
             })?,
     };
     let policy = crossym::pipeline::load_any_policy(&cfg, kin, &policy_path)?;
-    // The start state and, from a demonstration, the nominal trajectory.
-    let (q0, nominal, label) = match &a.q {
-        Some(q) => {
-            anyhow::ensure!(
-                q.len() == kin.dof(),
-                "--q has {} values, the robot has {} joints {:?}",
-                q.len(),
-                kin.dof(),
-                kin.joint_names()
-            );
-            anyhow::ensure!(
-                q.iter().all(|v| v.is_finite()),
-                "--q has a non-finite value"
-            );
-            if !kin.within_limits(q) {
-                eprintln!("warning: --q is outside the joint limits");
-            }
-            (q.clone(), None, "--q".to_string())
-        }
-        None => {
-            let demos = super::letter_demos(&cfg, kin)?;
-            let demo = crossym::pipeline::pick_demo(&demos, a.demo)?;
-            let which = demo.demo;
-            let aug = nominal_trajectories(&cfg, kin, demo, &[condition])
-                .map_err(anyhow::Error::msg)
-                .with_context(|| format!("demonstration {which} under {}", a.condition))?
-                .pop()
-                .context("no nominal trajectory")?;
-            (
-                aug.traj.q(0).to_vec(),
-                Some(aug.traj),
-                format!("demo {which}"),
-            )
-        }
-    };
+    let (q0, nominal, label) = start_state(a, &cfg, kin, &condition)?;
     let dt = match (a.dt, &nominal) {
         (Some(dt), _) => dt,
         (None, Some(t)) => t.dt,
@@ -121,39 +92,7 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
     let r = rollout(&policy, kin, &q0, &condition, dt, len);
     let (t, m) = (&r.traj, r.traj.m);
 
-    // CSV: one row per sample.
-    let names = kin.joint_names();
-    let mut csv = String::from("t");
-    for j in names {
-        write!(csv, ",q_{j}")?;
-    }
-    for j in names {
-        write!(csv, ",qdot_{j}")?;
-    }
-    for i in 0..m {
-        write!(csv, ",x{i}")?;
-    }
-    if nominal.is_some() {
-        for i in 0..m {
-            write!(csv, ",x{i}_nominal")?;
-        }
-    }
-    csv.push('\n');
-    let mut x_nominal = vec![0.0; m];
-    for k in 0..t.len() {
-        write!(csv, "{}", k as f64 * dt)?;
-        for v in t.q(k).iter().chain(t.qdot(k)).chain(t.x(k)) {
-            write!(csv, ",{v}")?;
-        }
-        if let Some(nom) = &nominal {
-            // At the sample's time; past the nominal's end its goal stands.
-            nominal_at(nom, k as f64 * dt, &mut x_nominal);
-            for v in &x_nominal {
-                write!(csv, ",{v}")?;
-            }
-        }
-        csv.push('\n');
-    }
+    let csv = csv(kin, t, nominal.as_ref(), dt)?;
     crossym::pipeline::create_parent(&a.out)?;
     std::fs::write(&a.out, &csv).with_context(|| format!("writing {}", a.out.display()))?;
 
@@ -213,36 +152,137 @@ pub fn rollout_cmd(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
     }
     println!("  wrote {}", a.out.display());
     if let Some(png) = &a.plot {
-        let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
-        let view = cfg.eval.view.unwrap_or(XY_VIEW);
-        let nominal_x = nominal.as_ref().map_or_else(Vec::new, |t| t.x.clone());
         let caption = format!(
             "{label}, {}, {:.1} s at Δt = {} s",
             condition_label(&condition),
             (t.len().max(1) - 1) as f64 * dt,
             dt
         );
-        let panel = PathPanel::single(m, arm_dim, view, nominal_x, t.x.clone(), caption);
-        let fig = PathFigure {
-            executed_name: "open-loop rollout".into(),
-            ..PathFigure::for_robot(
-                format!(
-                    "crossym rollout: {} on {}",
-                    super::file_name(&policy_path),
-                    kin.robot
-                ),
-                kin,
-                &cfg.eval,
-            )
-        };
-        write_paths_png(png, &fig, &[panel], 640).map_err(anyhow::Error::msg)?;
-        println!("  wrote {}", png.display());
+        plot(png, &cfg, kin, &policy_path, caption, t, nominal.as_ref())?;
     }
     Ok(if finite {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// The start state and, from a demonstration, the nominal trajectory and a label.
+fn start_state(
+    a: &RolloutArgs,
+    cfg: &Config,
+    kin: &Kinematics,
+    condition: &Condition,
+) -> anyhow::Result<(Vec<f64>, Option<JointTrajectory>, String)> {
+    Ok(match &a.q {
+        Some(q) => {
+            anyhow::ensure!(
+                q.len() == kin.dof(),
+                "--q has {} values, the robot has {} joints {:?}",
+                q.len(),
+                kin.dof(),
+                kin.joint_names()
+            );
+            anyhow::ensure!(
+                q.iter().all(|v| v.is_finite()),
+                "--q has a non-finite value"
+            );
+            if !kin.within_limits(q) {
+                eprintln!("warning: --q is outside the joint limits");
+            }
+            (q.clone(), None, "--q".to_string())
+        }
+        None => {
+            let demos = cfg.load_demonstrations(kin)?;
+            let demo = crossym::pipeline::pick_demo(&demos, a.demo)?;
+            let which = demo.demo;
+            let aug = nominal_trajectories(cfg, kin, demo, &[*condition])
+                .map_err(anyhow::Error::msg)
+                .with_context(|| format!("demonstration {which} under {}", a.condition))?
+                .pop()
+                .context("no nominal trajectory")?;
+            (
+                aug.traj.q(0).to_vec(),
+                Some(aug.traj),
+                format!("demo {which}"),
+            )
+        }
+    })
+}
+
+/// The CSV: `t`, then `q_<joint>`, `qdot_<joint>`, `x<i>` (and `x<i>_nominal` with a
+/// nominal trajectory), one row per sample `dt` apart.
+fn csv(
+    kin: &Kinematics,
+    t: &JointTrajectory,
+    nominal: Option<&JointTrajectory>,
+    dt: f64,
+) -> Result<String, std::fmt::Error> {
+    let m = t.m;
+    let names = kin.joint_names();
+    let mut csv = String::from("t");
+    for j in names {
+        write!(csv, ",q_{j}")?;
+    }
+    for j in names {
+        write!(csv, ",qdot_{j}")?;
+    }
+    for i in 0..m {
+        write!(csv, ",x{i}")?;
+    }
+    if nominal.is_some() {
+        for i in 0..m {
+            write!(csv, ",x{i}_nominal")?;
+        }
+    }
+    csv.push('\n');
+    let mut x_nominal = vec![0.0; m];
+    for k in 0..t.len() {
+        write!(csv, "{}", k as f64 * dt)?;
+        for v in t.q(k).iter().chain(t.qdot(k)).chain(t.x(k)) {
+            write!(csv, ",{v}")?;
+        }
+        if let Some(nom) = nominal {
+            // At the sample's time; past the nominal's end its goal stands.
+            nominal_at(nom, k as f64 * dt, &mut x_nominal);
+            for v in &x_nominal {
+                write!(csv, ",{v}")?;
+            }
+        }
+        csv.push('\n');
+    }
+    Ok(csv)
+}
+
+/// `--plot`: the task-space path, grey nominal, colour rollout.
+fn plot(
+    png: &Path,
+    cfg: &Config,
+    kin: &Kinematics,
+    policy_path: &Path,
+    caption: String,
+    t: &JointTrajectory,
+    nominal: Option<&JointTrajectory>,
+) -> anyhow::Result<()> {
+    let arm_dim = kin.chains().first().map_or(2, |c| c.task.dim());
+    let view = cfg.eval.view.unwrap_or(XY_VIEW);
+    let nominal_x = nominal.map_or_else(Vec::new, |t| t.x.clone());
+    let panel = PathPanel::single(t.m, arm_dim, view, nominal_x, t.x.clone(), caption);
+    let fig = PathFigure {
+        executed_name: "open-loop rollout".into(),
+        ..PathFigure::for_robot(
+            format!(
+                "crossym rollout: {} on {}",
+                file_name(policy_path),
+                kin.robot
+            ),
+            kin,
+            &cfg.eval,
+        )
+    };
+    write_paths_png(png, &fig, &[panel], 640).map_err(anyhow::Error::msg)?;
+    println!("  wrote {}", png.display());
+    Ok(())
 }
 
 /// Euclidean distance of two points (task units).

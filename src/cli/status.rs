@@ -11,7 +11,7 @@ use crossym::control::StatusCode;
 use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings};
 
-use super::ros::{node_config, NodeOverrides};
+use crossym::setup::{node_config, NodeOverrides};
 
 /// Options of `crossym status`.
 #[derive(Debug, clap::Args)]
@@ -68,7 +68,7 @@ pub fn status_line(m: &msg::Status) -> String {
 }
 
 /// `crossym status`. Exit 1 when no node answers within the timeout.
-pub fn status(a: &StatusArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: &StatusArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(
         a.timeout_s.is_finite() && a.timeout_s > 0.0,
         "--timeout-s {} must be positive",

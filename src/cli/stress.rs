@@ -6,10 +6,12 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
+use clap::ValueEnum;
 use crossym::config::Config;
-use crossym::control::OutputMode;
 use crossym::safety::{BoundRules, ExactBounds};
 use crossym::sim::stress::{report_table, run_campaign, Geometry, StressSettings};
+
+use super::common::OutputArg;
 
 /// Options of `crossym stress`.
 #[derive(Debug, clap::Args)]
@@ -29,16 +31,17 @@ pub struct StressArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "velocity,position,trajectory"
+        default_value = "velocity,position,trajectory",
+        value_enum
     )]
-    pub modes: Vec<String>,
+    pub modes: Vec<OutputArg>,
     /// Simulated time per episode (s).
     #[arg(long, default_value_t = 3.0)]
     pub duration_s: f64,
     /// Break the safety filter on purpose to see the campaign catch it: no-horizon,
     /// no-position-bound or no-acceleration-bound.
-    #[arg(long = "break")]
-    pub defect: Option<String>,
+    #[arg(long = "break", value_enum)]
+    pub defect: Option<DefectArg>,
     /// Re-run only the episode of this seed (as listed under "episodes with a violation")
     /// in the first of --modes, printing each violation.
     #[arg(long)]
@@ -48,8 +51,18 @@ pub struct StressArgs {
     pub out: Option<PathBuf>,
 }
 
+/// A deliberately broken safety filter (`--break`); runnable only in a build with the
+/// `fault-injection` feature (`crossym_control::faults::FilterDefect`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+#[allow(clippy::enum_variant_names)] // named as `FilterDefect`'s variants and the flag's values
+pub enum DefectArg {
+    NoHorizon,
+    NoPositionBound,
+    NoAccelerationBound,
+}
+
 /// `crossym stress`. Exits 1 when any episode violated a limit or published a non-finite value.
-pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: &StressArgs) -> anyhow::Result<ExitCode> {
     let mut geometries = Vec::new();
     if a.config.is_empty() {
         let planar = Config::from_file("config/letters.toml")?;
@@ -75,18 +88,7 @@ pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
-    let modes = a
-        .modes
-        .iter()
-        .map(|m| match m.as_str() {
-            "velocity" => Ok(OutputMode::Velocity),
-            "position" => Ok(OutputMode::Position),
-            "trajectory" => Ok(OutputMode::Trajectory),
-            o => Err(anyhow::anyhow!(
-                "--modes: `{o}` is not velocity, position or trajectory"
-            )),
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let modes = a.modes.iter().map(|&m| m.into()).collect();
     if !(a.duration_s.is_finite() && a.duration_s > 0.0) {
         anyhow::bail!("--duration-s must be positive");
     }
@@ -96,9 +98,9 @@ pub fn stress(a: &StressArgs) -> anyhow::Result<ExitCode> {
         modes,
         duration_s: a.duration_s,
     };
-    match a.defect.as_deref() {
+    match a.defect {
         None => campaign(a, &geometries, &settings, ExactBounds, None),
-        Some(name) => broken(a, &geometries, &settings, name),
+        Some(defect) => broken(a, &geometries, &settings, defect),
     }
 }
 
@@ -108,16 +110,13 @@ fn broken(
     a: &StressArgs,
     geometries: &[Geometry],
     settings: &StressSettings,
-    name: &str,
+    defect: DefectArg,
 ) -> anyhow::Result<ExitCode> {
     use crossym::control::faults::FilterDefect;
-    let defect = match name {
-        "no-horizon" => FilterDefect::NoHorizon,
-        "no-position-bound" => FilterDefect::NoPositionBound,
-        "no-acceleration-bound" => FilterDefect::NoAccelerationBound,
-        o => anyhow::bail!(
-            "--break: `{o}` is not no-horizon, no-position-bound or no-acceleration-bound"
-        ),
+    let defect = match defect {
+        DefectArg::NoHorizon => FilterDefect::NoHorizon,
+        DefectArg::NoPositionBound => FilterDefect::NoPositionBound,
+        DefectArg::NoAccelerationBound => FilterDefect::NoAccelerationBound,
     };
     let label = format!(", DELIBERATELY BROKEN FILTER ({defect:?})");
     campaign(a, geometries, settings, defect, Some(label))
@@ -129,8 +128,11 @@ fn broken(
     _: &StressArgs,
     _: &[Geometry],
     _: &StressSettings,
-    name: &str,
+    defect: DefectArg,
 ) -> anyhow::Result<ExitCode> {
+    let name = defect
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_string());
     anyhow::bail!(
         "--break {name}: this crossym was built without the `fault-injection` feature (on by \
          default; the Docker image leaves it out), so it has no broken filter to run"

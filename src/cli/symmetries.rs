@@ -134,7 +134,7 @@ fn print_map(g: &BodySymmetries, e: &BodyElement) {
 }
 
 /// `crossym symmetries`.
-pub fn symmetries(a: &SymmetriesArgs) -> anyhow::Result<ExitCode> {
+pub fn run(a: &SymmetriesArgs) -> anyhow::Result<ExitCode> {
     if !(a.tolerance.is_finite() && a.tolerance > 0.0) {
         anyhow::bail!("--tolerance {} is not a positive number", a.tolerance);
     }

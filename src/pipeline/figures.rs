@@ -1,6 +1,7 @@
 //! What a figure shows per sub-group: the augmented conditions a sub-group adds to the
 //! previous one (rotations, then scalings, then the reflection), evenly strided, with a
-//! caption naming the set and the ranges of `θ` (degrees) and `λ`.
+//! caption naming the set and the ranges of `θ` (degrees) and `λ`; and a file's name for a
+//! figure's title ([`file_name`]).
 
 use crate::symmetry::compose::Condition;
 
@@ -58,4 +59,12 @@ pub fn figure_conditions(
         label.push_str(", σ = −1");
     }
     (shown, label)
+}
+
+/// A file's name for a figure title (the whole path when it has none).
+pub fn file_name(p: &std::path::Path) -> String {
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |f| f.to_string_lossy().into_owned(),
+    )
 }

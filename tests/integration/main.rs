@@ -8,6 +8,7 @@ mod check;
 mod common;
 mod data;
 mod dds;
+mod demo;
 mod descend;
 mod equivariant;
 mod equivariant_node;
