@@ -1110,6 +1110,33 @@ fn a_reset_inside_the_envelope_restarts_from_the_measured_state() {
     assert_eq!(core.status().restarts, 1);
 }
 
+/// A robot whose joint states stop for longer than the command history while it moves:
+/// the node brakes to a hold the servo follows; when the states return, the distance the
+/// robot covered since the last one it saw is no jump (found by the fault campaign: the
+/// evicted commands' speed was read as 0 and every such gap restarted from the measured
+/// state, a step in the position commands).
+#[test]
+fn states_back_after_a_long_silence_do_not_restart_a_robot_that_followed() {
+    let mut core = lag_node(LAG_SETTINGS);
+    let mut cmd = core.command();
+    let mut servo = LagServo::at(&Q0);
+    run_lagging(&mut core, &mut servo, &mut cmd, 0.0, 100);
+    // 1.5 s without joint states: the node brakes and holds, the servo follows.
+    for k in 0..150 {
+        let t = 1.0 + k as f64 * 0.01;
+        let r = core.tick(t, &mut cmd);
+        assert!(k < 20 || r.code == StatusCode::StaleJointStates, "{r:?}");
+        servo.target.copy_from_slice(&cmd.positions);
+        servo.advance(0.01);
+    }
+    let codes = run_lagging(&mut core, &mut servo, &mut cmd, 2.5, 50);
+    assert!(
+        !codes.contains(&StatusCode::RestartedFromMeasured),
+        "{codes:?}"
+    );
+    assert_eq!(core.status().restarts, 0);
+}
+
 /// A joint that stops moving (frozen, held): within a bounded time the node holds — its
 /// commands stop changing — and reports ROBOT_NOT_FOLLOWING until a new condition arrives.
 #[test]

@@ -353,16 +353,18 @@ fn short_fault_campaign_finds_no_violation_in_any_output_mode() {
         let cfg = common::load_config("rby1-letters.toml");
         geometries.push(crossym::setup::stress_geometry(&cfg, "rby1").unwrap());
     }
+    // Seed 1's 300 episodes hold the one (16837675672961542539) that found restarts after
+    // a silence longer than the command history stepping the position commands.
     let s = StressSettings {
-        episodes: 40,
-        seed: 7,
-        duration_s: 2.0,
+        episodes: 300,
+        seed: 1,
+        duration_s: 3.0,
         ..Default::default()
     };
     let report = run_campaign(&geometries, &s, ExactBounds).unwrap();
     for (mode, t) in &report.modes {
-        assert_eq!(t.episodes, 40);
-        assert!(t.ticks >= 40 * 150, "{mode:?}: {} ticks", t.ticks);
+        assert_eq!(t.episodes, 300);
+        assert!(t.ticks >= 300 * 250, "{mode:?}: {} ticks", t.ticks);
         assert!(
             t.clean(),
             "{mode:?}: {} position (worst {:.2e}), {} velocity, {} acceleration, {} non-finite; seeds {:?}",

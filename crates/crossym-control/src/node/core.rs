@@ -434,12 +434,15 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             - self.filter.settings().latency()
             - self.cfg.safety.tracking_window_s
             - dt.max(0.0);
-        self.pos_history.max_speed(since, &mut self.cmd_speed);
+        // After a gap longer than the history (a silent robot) the commands' speed is not
+        // known: no evidence of a jump; the hull test still applies.
+        let known = self.pos_history.max_speed(since, &mut self.cmd_speed);
         // A robot that takes each position command at once moves a whole period's step
         // between two measurements however close they are, and commands held up by the
         // latency envelope arrive together: one period and the latency more.
         let reach = dt + self.cfg.period_s + self.filter.settings().latency();
         let jumped = self.prev_meas_seq != 0
+            && known
             && dt >= 0.0
             && (0..self.n).any(|j| {
                 (i.q[j] - self.prev_meas_q[j]).abs() > 1.5 * self.cmd_speed[j] * reach + slack

@@ -180,15 +180,16 @@ impl CommandHistory {
     /// Per joint, the largest speed `|u_k − u_{k−1}| / (t_k − t_{k−1})` between consecutive
     /// commands issued at or after `s_s` (s) into `out` (0 when fewer than two; a pair at the
     /// same time counts as infinitely fast). For position commands: how fast the commands
-    /// moved. Allocation-free.
-    pub fn max_speed(&self, s_s: f64, out: &mut [f64]) {
+    /// moved. Returns whether the history reaches back to `s_s`: false when commands issued
+    /// after `s_s` were evicted, so `out` may miss faster ones. Allocation-free.
+    pub fn max_speed(&self, s_s: f64, out: &mut [f64]) -> bool {
         let n = self.n;
         out.fill(0.0);
         for age in 1..self.len {
             let k = (self.head + self.cap - age + 1) % self.cap;
             let p = (self.head + self.cap - age) % self.cap;
             if self.times[p] < s_s {
-                break;
+                return true;
             }
             let dt = self.times[k] - self.times[p];
             for (i, o) in out.iter_mut().enumerate() {
@@ -203,6 +204,9 @@ impl CommandHistory {
                 *o = o.max(v);
             }
         }
+        // Every retained command is at or after `s_s`: complete unless older ones (the
+        // oldest retained one's predecessor) were evicted.
+        !self.evicted
     }
 
     /// Capacity (commands).
@@ -276,5 +280,25 @@ mod tests {
         h.push(0.03, &[0.06]);
         h.max_speed(0.025, &mut v);
         assert_eq!(v, [f64::INFINITY], "a step at one time");
+    }
+
+    #[test]
+    fn max_speed_says_when_the_history_does_not_reach_back() {
+        let mut h = CommandHistory::new(1, 3);
+        let mut v = [0.0];
+        assert!(
+            h.max_speed(-1.0, &mut v),
+            "the rest command covers all time"
+        );
+        // A fast step, then slow ones that evict it.
+        for (t, u) in [(0.0, 0.0), (0.01, 1.0), (0.02, 1.0), (0.03, 1.0)] {
+            h.push(t, &[u]);
+        }
+        // Retained: 0.01, 0.02, 0.03. Since 0.015 the history is complete (both pairs).
+        assert!(h.max_speed(0.015, &mut v));
+        assert_eq!(v, [0.0]);
+        // Since 0.0 the step 0.0 -> 0.01 was evicted: speed 0 seen, but incomplete.
+        assert!(!h.max_speed(0.0, &mut v), "{v:?}");
+        assert_eq!(v, [0.0]);
     }
 }
