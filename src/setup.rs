@@ -52,6 +52,17 @@ pub enum NodeSetupError {
         #[from]
         source: NodeError,
     },
+    /// The rest posture (`[mock_hw] initial_q` or `[check] reference_q`) does not fit the
+    /// robot.
+    #[error("{}: rest posture has {values} values for {joints} joints", path.display())]
+    RestPosture {
+        /// The config file.
+        path: PathBuf,
+        /// Values given.
+        values: usize,
+        /// Controlled joints.
+        joints: usize,
+    },
 }
 
 /// Overrides of `[node]` (the command line's `--policy`, `--name`, …); `None` keeps the
@@ -174,9 +185,9 @@ pub fn parse_condition(text: &str) -> Result<Condition, ConditionError> {
         scale: scale.parse().map_err(|e| number("scale", &e))?,
         reflection: reflection.parse().map_err(|e| number("reflection", &e))?,
     };
-    c.validate().map_err(|message| ConditionError::Invalid {
+    c.validate().map_err(|e| ConditionError::Invalid {
         text: text.into(),
-        message,
+        message: e.to_string(),
     })?;
     Ok(c)
 }
@@ -202,14 +213,16 @@ pub fn node_core(cfg: &Config, node: NodeConfig) -> Result<NodeCore, NodeSetupEr
 /// The stress campaign's robot `name` from a config file: robot (`[robot]`), node settings
 /// and policy (`[node]` with a policy); rest posture from `[mock_hw] initial_q`, else
 /// `[check] reference_q`, else zeros.
-pub fn stress_geometry(cfg: &Config, name: &str) -> Result<Geometry, String> {
-    let robot = cfg.load_robot().map_err(|e| e.to_string())?;
+pub fn stress_geometry(cfg: &Config, name: &str) -> Result<Geometry, NodeSetupError> {
+    let robot = cfg.load_robot()?;
     let node = cfg.node_config();
     let path = node
         .policy
         .clone()
-        .ok_or_else(|| format!("{}: [node] policy is not set", cfg.path.display()))?;
-    let policy = Policy::load(&path).map_err(|e| e.to_string())?;
+        .ok_or_else(|| NodeSetupError::NoPolicy {
+            path: cfg.path.clone(),
+        })?;
+    let policy = Policy::load(&path)?;
     let n = robot.kinematics.dof();
     let rest = cfg
         .mock_hw
@@ -218,11 +231,11 @@ pub fn stress_geometry(cfg: &Config, name: &str) -> Result<Geometry, String> {
         .or_else(|| cfg.check.reference_q.clone())
         .unwrap_or_else(|| vec![0.0; n]);
     if rest.len() != n {
-        return Err(format!(
-            "{}: rest posture has {} values for {n} joints",
-            cfg.path.display(),
-            rest.len()
-        ));
+        return Err(NodeSetupError::RestPosture {
+            path: cfg.path.clone(),
+            values: rest.len(),
+            joints: n,
+        });
     }
     Ok(Geometry {
         name: name.to_string(),

@@ -41,10 +41,7 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(&a.config)?;
     let node = node_config(&cfg, &NodeOverrides::default())?;
     let hw_cfg: MockHwConfig = cfg.mock_hw.clone().unwrap_or_default();
-    hw_cfg
-        .validate()
-        .map_err(anyhow::Error::msg)
-        .context("[mock_hw]")?;
+    hw_cfg.validate().context("[mock_hw]")?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
     let q0 = a
@@ -74,7 +71,6 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
         mode,
         hw_cfg.clone(),
     )
-    .map_err(anyhow::Error::msg)
     .context("[mock_hw]")?;
     let settings = DdsSettings::from_env()?;
     let s = crossym::sim::process::run(hw, &hw_cfg, &topic, mode, settings, summary)?;

@@ -9,6 +9,7 @@ use anyhow::Context;
 use clap::ValueEnum;
 use crossym::config::Config;
 use crossym::safety::{BoundRules, ExactBounds};
+use crossym::setup::NodeSetupError;
 use crossym::sim::stress::{report_table, run_campaign, Geometry, StressSettings};
 
 use super::common::OutputArg;
@@ -66,10 +67,9 @@ pub fn run(a: &StressArgs) -> anyhow::Result<ExitCode> {
     let mut geometries = Vec::new();
     if a.config.is_empty() {
         let planar = Config::from_file("config/letters.toml")?;
-        geometries
-            .push(crossym::setup::stress_geometry(&planar, "planar").map_err(anyhow::Error::msg)?);
+        geometries.push(crossym::setup::stress_geometry(&planar, "planar")?);
         match Config::from_file("config/rby1-letters.toml")
-            .map_err(|e| e.to_string())
+            .map_err(NodeSetupError::from)
             .and_then(|c| crossym::setup::stress_geometry(&c, "rby1"))
         {
             Ok(g) => geometries.push(g),
@@ -83,7 +83,6 @@ pub fn run(a: &StressArgs) -> anyhow::Result<ExitCode> {
                 .map_or("robot".into(), |s| s.to_string_lossy().into_owned());
             geometries.push(
                 crossym::setup::stress_geometry(&cfg, &name)
-                    .map_err(anyhow::Error::msg)
                     .with_context(|| format!("{}", p.display()))?,
             );
         }

@@ -419,6 +419,7 @@ fn composed_condition_acts_in_paper_order_and_validates() {
     }
     .validate()
     .unwrap_err()
+    .to_string()
     .contains("scale"));
     assert!(Condition {
         theta: 0.0,
@@ -427,6 +428,7 @@ fn composed_condition_acts_in_paper_order_and_validates() {
     }
     .validate()
     .unwrap_err()
+    .to_string()
     .contains("reflection"));
     assert!(Condition {
         theta: f64::NAN,

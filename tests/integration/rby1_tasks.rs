@@ -171,14 +171,18 @@ fn grids_without_a_scaling_symmetry_and_mixed_grids_are_refused() {
         scales: vec![0.5, 1.0],
         ..GroupGrid::identity()
     };
-    let e = aug.supports(&scaled).unwrap_err();
+    let e = aug.supports(&scaled).unwrap_err().to_string();
     assert!(e.contains("no scaling"), "{e}");
     let mixed = GroupGrid {
         rotation_step_deg: Some(30.0),
         conditions: Some(vec![[10.0, 1.0, 1.0]]),
         ..GroupGrid::identity()
     };
-    assert!(mixed.validate().unwrap_err().contains("conditions"));
+    assert!(mixed
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("conditions"));
     let bad = GroupGrid {
         conditions: Some(vec![[10.0, 1.0, 0.0]]),
         ..GroupGrid::identity()

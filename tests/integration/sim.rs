@@ -344,7 +344,8 @@ fn bad_settings_are_refused() {
             cfg,
         )
         .err()
-        .unwrap();
+        .unwrap()
+        .to_string();
         assert!(e.contains(what), "{e}");
     }
 }

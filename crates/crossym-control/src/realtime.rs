@@ -51,15 +51,29 @@ pub struct RealtimeConfig {
     pub idle_poll: bool,
 }
 
+/// A real-time setting out of its domain.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RealtimeConfigError {
+    /// A SCHED_FIFO priority outside 1 … 99.
+    #[error("{key} = {value} must be in 1 … 99 (SCHED_FIFO)")]
+    Priority {
+        /// The key (`priority`, `dds_priority`).
+        key: &'static str,
+        /// Its value.
+        value: i32,
+    },
+}
+
 impl RealtimeConfig {
     /// Checks the priority range.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), RealtimeConfigError> {
         for (key, p) in [
             ("priority", Some(self.priority)),
             ("dds_priority", self.dds_priority),
         ] {
-            if let Some(p) = p.filter(|p| !(1..=99).contains(p)) {
-                return Err(format!("{key} = {p} must be in 1 … 99 (SCHED_FIFO)"));
+            if let Some(value) = p.filter(|p| !(1..=99).contains(p)) {
+                return Err(RealtimeConfigError::Priority { key, value });
             }
         }
         Ok(())
@@ -263,7 +277,10 @@ mod tests {
                 cpu_latency_us: None,
                 idle_poll: false,
             };
-            assert!(c.validate().unwrap_err().contains("1 … 99"), "{p}");
+            assert!(
+                c.validate().unwrap_err().to_string().contains("1 … 99"),
+                "{p}"
+            );
             let d = RealtimeConfig {
                 priority: 80,
                 lock_memory: false,
@@ -271,7 +288,13 @@ mod tests {
                 cpu_latency_us: None,
                 idle_poll: false,
             };
-            assert!(d.validate().unwrap_err().starts_with("dds_priority"), "{p}");
+            assert!(
+                d.validate()
+                    .unwrap_err()
+                    .to_string()
+                    .starts_with("dds_priority"),
+                "{p}"
+            );
         }
         let ok: RealtimeConfig = toml::from_str("priority = 80\nlock_memory = true").unwrap();
         assert_eq!(ok.validate(), Ok(()));

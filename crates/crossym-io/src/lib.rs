@@ -14,4 +14,6 @@ pub mod bag;
 pub mod msg;
 pub mod msgdef;
 
-pub use msgdef::{ArrayKind, ConstantDef, FieldDef, FieldType, MsgDef, MsgDefError};
+pub use msgdef::{
+    ArrayKind, ConstantDef, FieldDef, FieldType, FieldTypeError, MsgDef, MsgDefError,
+};

@@ -20,6 +20,36 @@ pub enum MsgDefError {
     },
 }
 
+/// Why a field type (`float64[<=4]`, …) is refused ([`FieldType::parse`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FieldTypeError {
+    /// `[` without a closing `]`.
+    #[error("unterminated array type `{ty}`")]
+    Unterminated {
+        /// The type as written.
+        ty: String,
+    },
+    /// The bound of `T[<=N]` is not a number.
+    #[error("bad bound in `{ty}`")]
+    BadBound {
+        /// The type as written.
+        ty: String,
+    },
+    /// The size of `T[N]` is not a number.
+    #[error("bad size in `{ty}`")]
+    BadSize {
+        /// The type as written.
+        ty: String,
+    },
+    /// The base type is empty or has characters a type cannot have.
+    #[error("bad type `{ty}`")]
+    BadType {
+        /// The type as written.
+        ty: String,
+    },
+}
+
 /// Array-ness of a field type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ArrayKind {
@@ -44,19 +74,26 @@ pub struct FieldType {
 
 impl FieldType {
     /// Parses `float64`, `string[]`, `int8[3]`, `std_msgs/Header[<=4]`.
-    pub fn parse(s: &str) -> Result<Self, String> {
+    pub fn parse(s: &str) -> Result<Self, FieldTypeError> {
         let (base, array) = match s.find('[') {
             None => (s, ArrayKind::Scalar),
             Some(i) => {
                 let inner = s[i + 1..]
                     .strip_suffix(']')
-                    .ok_or_else(|| format!("unterminated array type `{s}`"))?;
+                    .ok_or_else(|| FieldTypeError::Unterminated { ty: s.to_string() })?;
                 let array = if inner.is_empty() {
                     ArrayKind::Unbounded
                 } else if let Some(n) = inner.strip_prefix("<=") {
-                    ArrayKind::Bounded(n.parse().map_err(|_| format!("bad bound in `{s}`"))?)
+                    ArrayKind::Bounded(
+                        n.parse()
+                            .map_err(|_| FieldTypeError::BadBound { ty: s.to_string() })?,
+                    )
                 } else {
-                    ArrayKind::Fixed(inner.parse().map_err(|_| format!("bad size in `{s}`"))?)
+                    ArrayKind::Fixed(
+                        inner
+                            .parse()
+                            .map_err(|_| FieldTypeError::BadSize { ty: s.to_string() })?,
+                    )
                 };
                 (&s[..i], array)
             }
@@ -64,7 +101,7 @@ impl FieldType {
         let ok =
             |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '/' || c == '<' || c == '=';
         if base.is_empty() || !base.chars().all(ok) {
-            return Err(format!("bad type `{s}`"));
+            return Err(FieldTypeError::BadType { ty: s.to_string() });
         }
         Ok(Self {
             base: base.to_string(),
@@ -163,7 +200,7 @@ impl MsgDef {
             let (ty_str, rest) = trimmed
                 .split_once(char::is_whitespace)
                 .ok_or_else(|| err(format!("expected `type name`, got `{trimmed}`")))?;
-            let ty = FieldType::parse(ty_str).map_err(&err)?;
+            let ty = FieldType::parse(ty_str).map_err(|e| err(e.to_string()))?;
             let rest = rest.trim_start();
             let is_string = ty.base.starts_with("string") || ty.base.starts_with("wstring");
             // Constant: NAME=value (string constants keep '#' in their value).

@@ -181,9 +181,9 @@ impl NodeConfig {
         }
         self.default_condition
             .validate()
-            .map_err(|m| bad("default_condition", m))?;
+            .map_err(|m| bad("default_condition", m.to_string()))?;
         if let Some(r) = &self.realtime {
-            r.validate().map_err(|m| bad("realtime", m))?;
+            r.validate().map_err(|e| bad("realtime", e.to_string()))?;
         }
         Ok(())
     }

@@ -12,6 +12,7 @@ use super::config::NodeConfig;
 use super::config::OutputMode;
 use super::error::NodeError;
 use super::feasibility::feasibility;
+use super::fit::{checked_domain, checked_policy};
 use super::gate::InputGate;
 use super::gate::Inputs;
 use super::rejection::Rejection;
@@ -21,7 +22,8 @@ use super::status::StatusSnapshot;
 use super::status::TickReport;
 use crate::safety::history::{CommandHistory, CommandWindow};
 use crate::safety::{
-    Anchor, Barrier, BoundRules, ExactBounds, SafetyFilter, SafetySettings, SafetyStatus,
+    Anchor, Barrier, BoundRules, ExactBounds, SafetyFilter, SafetyReport, SafetySettings,
+    SafetyStatus,
 };
 
 /// The node's logic: latest inputs, the control tick, the status. See the module docs.
@@ -120,52 +122,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         // `cfg`, the filter is built from `safety`.
         cfg.safety = safety;
         cfg.validate()?;
-        let policy = match policy.into() {
-            AnyPolicy::Plain(p) if p.meta.canonicalised.is_some() || p.meta.task_head.is_some() => {
-                AnyPolicy::new(*p, &kin).map_err(|message| NodeError::Policy {
-                    message: message.to_string(),
-                })?
-            }
-            other => other,
-        };
+        let policy = checked_policy(policy.into(), &kin, &safety)?;
         let n = kin.dof();
-        if policy.dim() != n {
-            return Err(NodeError::Policy {
-                message: format!("policy has {} joints, robot controls {n}", policy.dim()),
-            });
-        }
-        let names = &policy.network().meta.joint_names;
-        // A task head's network is named by task coordinates, checked when it was built.
-        if policy.task_head().is_none()
-            && !names.is_empty()
-            && names.as_slice() != kin.joint_names()
-        {
-            return Err(NodeError::Policy {
-                message: format!(
-                    "policy joints {:?} differ from the robot's {:?}",
-                    names,
-                    kin.joint_names()
-                ),
-            });
-        }
-        if let Some(t) = policy.network().task_features() {
-            t.check_kinematics(&kin)
-                .map_err(|message| NodeError::Policy {
-                    message: message.to_string(),
-                })?;
-        }
-        if safety.min_ee_distance.is_some() {
-            let c = kin.chains();
-            if c.len() != 2 || c[0].task.dim() != c[1].task.dim() {
-                return Err(NodeError::Config {
-                    field: "safety.min_ee_distance",
-                    message: format!(
-                        "needs exactly two chains of equal task dimension, robot has {}",
-                        c.len()
-                    ),
-                });
-            }
-        }
         let limits = kin.limits().to_vec();
         let filter = SafetyFilter::with_rules(
             &limits,
@@ -188,24 +146,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             + 4;
         let kws = kin.workspace();
         let pws = policy.workspace();
-        let domain = cfg
-            .condition_domain(&policy)
-            .map_err(|m| NodeError::Policy {
-                message: format!("the sidecar's training record: {m}"),
-            })?;
-        if let Some(d) = &domain {
-            if let Err(part) = d.check(&cfg.default_condition) {
-                return Err(NodeError::Config {
-                    field: "default_condition",
-                    message: format!(
-                        "{:?}: {part} lies outside the policy's trained conditions ({}); \
-                         set accept_untrained_conditions = true to allow it",
-                        cfg.default_condition,
-                        d.describe()
-                    ),
-                });
-            }
-        }
+        let domain = checked_domain(&cfg, &policy)?;
         let gate = InputGate::new(kin.joint_names(), &cfg)
             .with_domain(domain)
             .with_feasibility(feasibility(&policy, &limits));
@@ -402,6 +343,68 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         })
     }
 
+    /// Position modes, before the policy runs: whether the robot follows the commands (the
+    /// hull test, and with a lag window no jump), else a restart from the measured state at
+    /// rest, counted; `Err` with the braking tick once the restarts say the robot does not
+    /// follow. `Ok((restarted, lagging))`, lagging: the tracking warning holds.
+    fn follow(&mut self, now_s: f64, out: &mut Command) -> Result<(bool, bool), TickReport> {
+        let mut restarted = false;
+        // With a lag window, a measured jump (a reset, a robot moved by something else)
+        // restarts even when it lands inside the envelope of the window's commands.
+        // Without one the envelope is the commands since the measurement: a jump
+        // leaves it anyway.
+        let jumped = self.cfg.safety.tracking_window_s > 0.0 && self.measured_jump();
+        let tracks = !self.has_hold || (!jumped && self.tracks_commands());
+        if !tracks && self.count_restart(now_s) {
+            // Repeated restarts: the robot does not follow. Hold where the commands are.
+            self.halted = true;
+            self.halted_condition_seq = self.gate.inputs.condition_seq;
+            self.not_following_ticks = self.not_following_ticks.saturating_add(1);
+            self.tracking_high_since = None;
+            return Err(self.braking(now_s, out, StatusCode::RobotNotFollowing));
+        }
+        if !self.has_hold || !tracks {
+            restarted = self.has_hold;
+            for j in 0..self.n {
+                self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
+            }
+            self.filter.reset(&self.zeros);
+            if self.has_hold {
+                // Commands still in flight may yet move the robot: keep them in the hull.
+                self.pos_history.push(now_s, &self.q_hold);
+            } else {
+                self.pos_history.reset_to(&self.q_hold);
+            }
+            self.has_hold = true;
+            self.tracking_high_since = None;
+            self.tracking_error = 0.0;
+            self.v_last.fill(0.0);
+        }
+        let lagging = self.watch_tracking(now_s);
+        Ok((restarted, lagging))
+    }
+
+    /// The command of the filtered velocity `v`: `v`, and `q + v·Δt` clamped into the
+    /// position limits from the last commanded (position modes) or the measured `q`; false
+    /// when a value is not finite.
+    fn compose(&self, position: bool, out: &mut Command) -> bool {
+        out.mode = self.cfg.output;
+        out.start_positions.copy_from_slice(&self.q_hold);
+        out.start_velocities.copy_from_slice(&self.v_last);
+        let dt = self.cfg.period_s;
+        let q = &self.gate.inputs.q;
+        let mut finite = true;
+        for j in 0..self.n {
+            let v = self.v_safe[j];
+            let from = if position { self.q_hold[j] } else { q[j] };
+            let p = clamp_to(&self.limits[j], from + v * dt);
+            finite &= v.is_finite() && p.is_finite();
+            out.velocities[j] = v;
+            out.positions[j] = p;
+        }
+        finite
+    }
+
     /// A braking tick ([`Self::brake`]) reported as `code`.
     fn braking(&mut self, now_s: f64, out: &mut Command, code: StatusCode) -> TickReport {
         let publish = self.brake(now_s, out);
@@ -497,44 +500,15 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             self.restart_times.fill(f64::NEG_INFINITY);
         }
         // Position modes: the next command continues the last commanded position, unless
-        // there is none yet or the robot is not where the commands put it (a reset, a robot
-        // that does not follow): then it starts from the measured state at rest.
-        let mut restarted = false;
-        let mut lagging = false;
-        if self.is_position() {
-            // With a lag window, a measured jump (a reset, a robot moved by something else)
-            // restarts even when it lands inside the envelope of the window's commands.
-            // Without one the envelope is the commands since the measurement: a jump
-            // leaves it anyway.
-            let jumped = self.cfg.safety.tracking_window_s > 0.0 && self.measured_jump();
-            let tracks = !self.has_hold || (!jumped && self.tracks_commands());
-            if !tracks && self.count_restart(now_s) {
-                // Repeated restarts: the robot does not follow. Hold where the commands are.
-                self.halted = true;
-                self.halted_condition_seq = self.gate.inputs.condition_seq;
-                self.not_following_ticks = self.not_following_ticks.saturating_add(1);
-                self.tracking_high_since = None;
-                return self.braking(now_s, out, StatusCode::RobotNotFollowing);
+        // there is none yet or the robot is not where the commands put it.
+        let (restarted, lagging) = if self.is_position() {
+            match self.follow(now_s, out) {
+                Ok(flags) => flags,
+                Err(report) => return report,
             }
-            if !self.has_hold || !tracks {
-                restarted = self.has_hold;
-                for j in 0..self.n {
-                    self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
-                }
-                self.filter.reset(&self.zeros);
-                if self.has_hold {
-                    // Commands still in flight may yet move the robot: keep them in the hull.
-                    self.pos_history.push(now_s, &self.q_hold);
-                } else {
-                    self.pos_history.reset_to(&self.q_hold);
-                }
-                self.has_hold = true;
-                self.tracking_high_since = None;
-                self.tracking_error = 0.0;
-                self.v_last.fill(0.0);
-            }
-            lagging = self.watch_tracking(now_s);
-        }
+        } else {
+            (false, false)
+        };
         let inputs = &self.gate.inputs;
         let q = inputs.q.as_slice();
         // FK and Jacobian once: the safety filter reads the Jacobian, the policy's task
@@ -583,20 +557,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             barrier,
             &mut self.v_safe,
         );
-        out.mode = self.cfg.output;
-        out.start_positions.copy_from_slice(&self.q_hold);
-        out.start_velocities.copy_from_slice(&self.v_last);
-        let dt = self.cfg.period_s;
-        let mut finite = true;
-        for j in 0..self.n {
-            let v = self.v_safe[j];
-            let from = if position { self.q_hold[j] } else { q[j] };
-            let p = clamp_to(&self.limits[j], from + v * dt);
-            finite &= v.is_finite() && p.is_finite();
-            out.velocities[j] = v;
-            out.positions[j] = p;
-        }
-        if !finite {
+        if !self.compose(position, out) {
             // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
             let publish = self.brake(now_s, out);
             self.code = StatusCode::SafetyFallback;
@@ -622,23 +583,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         if report.policy_nonfinite && !infeasible {
             self.nonfinite_ticks = self.nonfinite_ticks.saturating_add(1);
         }
-        self.code = if inputs.joint_state_rejected || inputs.condition_rejected {
-            StatusCode::InvalidInput
-        } else if report.status == SafetyStatus::Fallback {
-            StatusCode::SafetyFallback
-        } else if infeasible {
-            StatusCode::ConditionInfeasible
-        } else if report.policy_nonfinite {
-            StatusCode::PolicyNonfinite
-        } else if restarted {
-            StatusCode::RestartedFromMeasured
-        } else if lagging {
-            StatusCode::TrackingError
-        } else if report.active > 0 {
-            StatusCode::JointBound
-        } else {
-            StatusCode::NoWarning
-        };
+        let rejected = inputs.joint_state_rejected || inputs.condition_rejected;
+        self.code = tick_code(rejected, &report, infeasible, restarted, lagging);
         TickReport {
             code: self.code,
             publish: true,
@@ -762,4 +708,33 @@ fn clamp_to(l: &JointLimits, x: f64) -> f64 {
         y = l.lower;
     }
     y
+}
+
+/// The status of a tick that published a filtered command, by priority: rejected input,
+/// the filter's fallback, an infeasible condition, a policy fault, a restart, a tracking
+/// warning, a joint on a bound.
+fn tick_code(
+    rejected: bool,
+    report: &SafetyReport,
+    infeasible: bool,
+    restarted: bool,
+    lagging: bool,
+) -> StatusCode {
+    if rejected {
+        StatusCode::InvalidInput
+    } else if report.status == SafetyStatus::Fallback {
+        StatusCode::SafetyFallback
+    } else if infeasible {
+        StatusCode::ConditionInfeasible
+    } else if report.policy_nonfinite {
+        StatusCode::PolicyNonfinite
+    } else if restarted {
+        StatusCode::RestartedFromMeasured
+    } else if lagging {
+        StatusCode::TrackingError
+    } else if report.active > 0 {
+        StatusCode::JointBound
+    } else {
+        StatusCode::NoWarning
+    }
 }

@@ -33,6 +33,7 @@ mod config;
 mod core;
 mod error;
 mod feasibility;
+mod fit;
 mod gate;
 mod rejection;
 mod stage;

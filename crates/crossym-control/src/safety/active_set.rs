@@ -124,6 +124,11 @@ fn free_dot(free: &[usize], a: &[f64], y: &[f64]) -> f64 {
     free.iter().zip(y).map(|(&i, y)| a[i] * y).sum()
 }
 
+// Long (≈175 lines) on purpose: one primal active-set loop — the equality-constrained
+// step on the free joints, the blocking bound, the multipliers that release a joint —
+// whose state lives in the caller's workspace. Split into functions, each piece would take
+// the same dozen slices and the loop would lose the textbook shape it is checked against
+// (Nocedal & Wright, Alg. 16.3).
 /// Solves the QP above into `x` (rad/s or m/s per joint); `w` column-major `n × n`
 /// (nalgebra's layout), `row = (a, c)` for `aᵀx ≥ c`. Allocation-free.
 ///

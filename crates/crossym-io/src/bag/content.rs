@@ -130,7 +130,7 @@ impl Bag {
         if t.ros_type != M::ROS_TYPE {
             return Err(err(format!("is not a {}", M::ROS_TYPE)));
         }
-        cdr::decode(&m.data).map_err(err)
+        cdr::decode(&m.data).map_err(|e| err(e.to_string()))
     }
 
     /// Topics, counts and time range.

@@ -54,10 +54,6 @@ impl Bag {
 
     /// Parses MCAP bytes; `path` labels errors.
     pub fn from_bytes(buf: &[u8], path: &Path) -> Result<Self, BagError> {
-        let mcap_err = |e: mcap::McapError| BagError::Mcap {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
         let not_ros2 = |message: String| BagError::NotRos2 {
             path: path.to_path_buf(),
             message,
@@ -77,12 +73,7 @@ impl Bag {
                 "MCAP profile is `{profile}`, expected `ros2`"
             )));
         }
-        let mut topics: Vec<TopicInfo> = Vec::new();
-        let mut channel_index: std::collections::HashMap<u16, usize> = Default::default();
-        let mut schemas: std::collections::HashMap<u16, (String, String)> = Default::default();
-        let mut channels: std::collections::HashMap<u16, mcap::records::Channel> =
-            Default::default();
-        let mut messages = Vec::new();
+        let mut records = Records::default();
         // The sans-io reader with a record-length limit: `MessageStream` has none inside
         // chunks, so a corrupt record length there would make it reserve without bound
         // (found by the `bag_reader` fuzz target).
@@ -98,7 +89,7 @@ impl Bag {
         );
         let mut fed = 0usize;
         while let Some(event) = reader.next_event() {
-            match event.map_err(mcap_err)? {
+            match event.map_err(|e| mcap_err(path, e))? {
                 mcap::sans_io::LinearReadEvent::ReadRequest(n) => {
                     let take = n.min(buf.len() - fed);
                     reader.insert(take).copy_from_slice(&buf[fed..fed + take]);
@@ -106,92 +97,16 @@ impl Bag {
                     fed += take;
                 }
                 mcap::sans_io::LinearReadEvent::Record { data, opcode } => {
-                    // Only schemas, channels and messages are needed; their length prefixes
-                    // are checked first (the mcap crate allocates what a prefix declares).
-                    if !matches!(opcode, 0x03..=0x05) {
-                        continue;
-                    }
-                    check_lengths(opcode, data).map_err(|m| BagError::Mcap {
-                        path: path.to_path_buf(),
-                        message: m,
-                    })?;
-                    match mcap::parse_record(opcode, data).map_err(mcap_err)? {
-                        mcap::records::Record::Schema { header, .. } => {
-                            schemas.insert(header.id, (header.name, header.encoding));
-                        }
-                        mcap::records::Record::Channel(ch) => {
-                            channels.entry(ch.id).or_insert(ch);
-                        }
-                        mcap::records::Record::Message { header, data } => {
-                            let idx = match channel_index.get(&header.channel_id) {
-                                Some(&i) => i,
-                                None => {
-                                    let ch = channels.get(&header.channel_id).ok_or_else(|| {
-                                        not_ros2(format!(
-                                            "message on unknown channel {}",
-                                            header.channel_id
-                                        ))
-                                    })?;
-                                    if ch.message_encoding != "cdr" {
-                                        return Err(not_ros2(format!(
-                                            "topic {} has message encoding `{}`, expected `cdr`",
-                                            ch.topic, ch.message_encoding
-                                        )));
-                                    }
-                                    let (name, enc) =
-                                        schemas.get(&ch.schema_id).ok_or_else(|| {
-                                            not_ros2(format!("topic {} has no schema", ch.topic))
-                                        })?;
-                                    if enc != "ros2msg" && enc != "ros2idl" {
-                                        return Err(not_ros2(format!(
-                                            "topic {} has schema encoding `{enc}`, expected `ros2msg`",
-                                            ch.topic
-                                        )));
-                                    }
-                                    topics.push(TopicInfo {
-                                        name: ch.topic.clone(),
-                                        ros_type: name.clone(),
-                                        count: 0,
-                                        qos: ch.metadata.get("offered_qos_profiles").cloned(),
-                                    });
-                                    channel_index.insert(ch.id, topics.len() - 1);
-                                    topics.len() - 1
-                                }
-                            };
-                            topics[idx].count += 1;
-                            messages.push(RawMessage {
-                                topic: idx,
-                                log_ns: header.log_time,
-                                publish_ns: header.publish_time,
-                                sequence: header.sequence,
-                                data: data.into_owned(),
-                            });
-                        }
-                        _ => {}
-                    }
+                    records.record(opcode, data, path)?;
                 }
             }
         }
-        // Channels without messages (from the summary, when there is one).
-        if let Ok(Some(summary)) = mcap::Summary::read(buf) {
-            let mut ids: Vec<_> = summary.channels.keys().copied().collect();
-            ids.sort();
-            for id in ids {
-                let ch = &summary.channels[&id];
-                if channel_index.contains_key(&id) || ch.message_encoding != "cdr" {
-                    continue;
-                }
-                if let Some(schema) = &ch.schema {
-                    topics.push(TopicInfo {
-                        name: ch.topic.clone(),
-                        ros_type: schema.name.clone(),
-                        count: 0,
-                        qos: ch.metadata.get("offered_qos_profiles").cloned(),
-                    });
-                    channel_index.insert(id, topics.len() - 1);
-                }
-            }
-        }
+        records.summary_channels(buf);
+        let Records {
+            topics,
+            mut messages,
+            ..
+        } = records;
         messages.sort_by_key(|m| m.log_ns);
         Ok(Self {
             path: path.to_path_buf(),
@@ -199,6 +114,126 @@ impl Bag {
             topics,
             messages,
         })
+    }
+}
+
+/// An MCAP reader error on the file `path`.
+fn mcap_err(path: &Path, e: mcap::McapError) -> BagError {
+    BagError::Mcap {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// What the records read so far hold: the topics (in the order of their first message),
+/// the index of each channel's topic, the schemas and channels by id, and the messages.
+#[derive(Default)]
+struct Records {
+    topics: Vec<TopicInfo>,
+    channel_index: std::collections::HashMap<u16, usize>,
+    schemas: std::collections::HashMap<u16, (String, String)>,
+    channels: std::collections::HashMap<u16, mcap::records::Channel>,
+    messages: Vec<RawMessage>,
+}
+
+impl Records {
+    /// Takes in one record of the data section (`opcode`, `data`); `path` labels errors.
+    fn record(&mut self, opcode: u8, data: &[u8], path: &Path) -> Result<(), BagError> {
+        // Only schemas, channels and messages are needed; their length prefixes
+        // are checked first (the mcap crate allocates what a prefix declares).
+        if !matches!(opcode, 0x03..=0x05) {
+            return Ok(());
+        }
+        check_lengths(opcode, data).map_err(|m| BagError::Mcap {
+            path: path.to_path_buf(),
+            message: m,
+        })?;
+        match mcap::parse_record(opcode, data).map_err(|e| mcap_err(path, e))? {
+            mcap::records::Record::Schema { header, .. } => {
+                self.schemas
+                    .insert(header.id, (header.name, header.encoding));
+            }
+            mcap::records::Record::Channel(ch) => {
+                self.channels.entry(ch.id).or_insert(ch);
+            }
+            mcap::records::Record::Message { header, data } => {
+                let idx =
+                    self.topic_of(header.channel_id)
+                        .map_err(|message| BagError::NotRos2 {
+                            path: path.to_path_buf(),
+                            message,
+                        })?;
+                self.topics[idx].count += 1;
+                self.messages.push(RawMessage {
+                    topic: idx,
+                    log_ns: header.log_time,
+                    publish_ns: header.publish_time,
+                    sequence: header.sequence,
+                    data: data.into_owned(),
+                });
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The topic of channel `channel_id`, added on its first message after checking its
+    /// message and schema encodings; what is wrong otherwise.
+    fn topic_of(&mut self, channel_id: u16) -> Result<usize, String> {
+        if let Some(&i) = self.channel_index.get(&channel_id) {
+            return Ok(i);
+        }
+        let ch = self
+            .channels
+            .get(&channel_id)
+            .ok_or_else(|| format!("message on unknown channel {channel_id}"))?;
+        if ch.message_encoding != "cdr" {
+            return Err(format!(
+                "topic {} has message encoding `{}`, expected `cdr`",
+                ch.topic, ch.message_encoding
+            ));
+        }
+        let (name, enc) = self
+            .schemas
+            .get(&ch.schema_id)
+            .ok_or_else(|| format!("topic {} has no schema", ch.topic))?;
+        if enc != "ros2msg" && enc != "ros2idl" {
+            return Err(format!(
+                "topic {} has schema encoding `{enc}`, expected `ros2msg`",
+                ch.topic
+            ));
+        }
+        self.topics.push(TopicInfo {
+            name: ch.topic.clone(),
+            ros_type: name.clone(),
+            count: 0,
+            qos: ch.metadata.get("offered_qos_profiles").cloned(),
+        });
+        self.channel_index.insert(ch.id, self.topics.len() - 1);
+        Ok(self.topics.len() - 1)
+    }
+
+    /// Adds the channels without messages (from the summary, when there is one).
+    fn summary_channels(&mut self, buf: &[u8]) {
+        if let Ok(Some(summary)) = mcap::Summary::read(buf) {
+            let mut ids: Vec<_> = summary.channels.keys().copied().collect();
+            ids.sort();
+            for id in ids {
+                let ch = &summary.channels[&id];
+                if self.channel_index.contains_key(&id) || ch.message_encoding != "cdr" {
+                    continue;
+                }
+                if let Some(schema) = &ch.schema {
+                    self.topics.push(TopicInfo {
+                        name: ch.topic.clone(),
+                        ros_type: schema.name.clone(),
+                        count: 0,
+                        qos: ch.metadata.get("offered_qos_profiles").cloned(),
+                    });
+                    self.channel_index.insert(id, self.topics.len() - 1);
+                }
+            }
+        }
     }
 }
 

@@ -181,12 +181,12 @@ impl BagWriter {
         log_ns: u64,
         sequence: u32,
     ) -> Result<(), BagError> {
-        let data = cdr::encode(m).map_err(|message| BagError::Decode {
+        let data = cdr::encode(m).map_err(|e| BagError::Decode {
             path: self.dir.join(&self.file_name),
             topic: self.topics[topic.0].name.clone(),
             ros_type: self.topics[topic.0].ros_type.clone(),
             index: self.count as usize,
-            message,
+            message: e.to_string(),
         })?;
         self.write_raw(topic, &data, log_ns, log_ns, sequence)
     }

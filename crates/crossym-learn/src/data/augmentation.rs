@@ -17,12 +17,65 @@
 use serde::{Deserialize, Serialize};
 
 use super::letters::JointTrajectory;
-use crossym_math::kinematics::Kinematics;
+use crossym_math::kinematics::{Kinematics, KinematicsWorkspace};
 use crossym_math::symmetry::check::BuiltSymmetry;
 use crossym_math::symmetry::compose::Condition;
 use crossym_math::symmetry::finite::SignedPermutation;
 use crossym_math::symmetry::parts::{composition_parts, CompositionParts};
 use crossym_math::symmetry::transfer::lift::{LiftError, LiftedAction};
+
+/// Why an augmentation grid or an augmenter is refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum AugmentationError {
+    /// An explicit list of conditions together with grid settings.
+    #[error(
+        "`conditions` replaces rotation_step_deg, scales, reflection and \
+         max_rotation_deg: give one or the other"
+    )]
+    ConditionsAndGrid,
+    /// An explicit, empty list of conditions.
+    #[error("`conditions` is empty")]
+    NoConditions,
+    /// A condition of the explicit list is out of its domain.
+    #[error("{message}")]
+    Condition {
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The largest rotation is negative or not finite.
+    #[error("max_rotation_deg {max_rotation_deg} must be non-negative")]
+    MaxRotation {
+        /// The setting (degrees).
+        max_rotation_deg: f64,
+    },
+    /// The rotation step is outside `(0, 180]`.
+    #[error("rotation_step_deg {rotation_step_deg} must be in (0, 180]")]
+    RotationStep {
+        /// The setting (degrees).
+        rotation_step_deg: f64,
+    },
+    /// No scale, or a scale that is not positive.
+    #[error("scales {scales:?} must be non-empty and positive")]
+    Scales {
+        /// The setting.
+        scales: Vec<f64>,
+    },
+    /// The grid scales but the composition has no scaling symmetry.
+    #[error("the grid scales by {scales:?} but [composition] order names no scaling symmetry")]
+    NoScaling {
+        /// The grid's scales.
+        scales: Vec<f64>,
+    },
+    /// The reflection acts on another dimension than the robot's joint space.
+    #[error("reflection acts on R^{reflection}, dim Q = {dof}")]
+    ReflectionDim {
+        /// Dimension the reflection acts on.
+        reflection: usize,
+        /// Joints of the robot.
+        dof: usize,
+    },
+}
 
 /// A finite grid of conditions `s = (θ, λ, σ)`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -62,42 +115,43 @@ impl GroupGrid {
     }
 
     /// Checks steps and scales; says what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), AugmentationError> {
         if let Some(list) = &self.conditions {
             if self.rotation_step_deg.is_some()
                 || self.reflection
                 || self.max_rotation_deg.is_some()
                 || self.scales != one()
             {
-                return Err(
-                    "`conditions` replaces rotation_step_deg, scales, reflection and \
-                     max_rotation_deg: give one or the other"
-                        .into(),
-                );
+                return Err(AugmentationError::ConditionsAndGrid);
             }
             if list.is_empty() {
-                return Err("`conditions` is empty".into());
+                return Err(AugmentationError::NoConditions);
             }
             for c in self.conditions() {
-                c.validate()?;
+                c.validate().map_err(|e| AugmentationError::Condition {
+                    message: e.to_string(),
+                })?;
             }
             return Ok(());
         }
         if let Some(m) = self.max_rotation_deg {
             if !(m.is_finite() && m >= 0.0) {
-                return Err(format!("max_rotation_deg {m} must be non-negative"));
+                return Err(AugmentationError::MaxRotation {
+                    max_rotation_deg: m,
+                });
             }
         }
         if let Some(d) = self.rotation_step_deg {
             if !(d.is_finite() && d > 0.0 && d <= 180.0) {
-                return Err(format!("rotation_step_deg {d} must be in (0, 180]"));
+                return Err(AugmentationError::RotationStep {
+                    rotation_step_deg: d,
+                });
             }
         }
         if self.scales.is_empty() || self.scales.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
-            return Err(format!(
-                "scales {:?} must be non-empty and positive",
-                self.scales
-            ));
+            return Err(AugmentationError::Scales {
+                scales: self.scales.clone(),
+            });
         }
         Ok(())
     }
@@ -360,13 +414,12 @@ impl<'a> Augmenter<'a> {
         rotation: LiftedAction<'a>,
         scaling: Option<LiftedAction<'a>>,
         reflection: SignedPermutation,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, AugmentationError> {
         if reflection.dim() != kin.dof() {
-            return Err(format!(
-                "reflection acts on R^{}, dim Q = {}",
-                reflection.dim(),
-                kin.dof()
-            ));
+            return Err(AugmentationError::ReflectionDim {
+                reflection: reflection.dim(),
+                dof: kin.dof(),
+            });
         }
         Ok(Self {
             kin,
@@ -378,12 +431,11 @@ impl<'a> Augmenter<'a> {
 
     /// Checks that this augmenter can produce every condition of `grid` (a scaling other
     /// than 1 needs a scaling symmetry).
-    pub fn supports(&self, grid: &GroupGrid) -> Result<(), String> {
+    pub fn supports(&self, grid: &GroupGrid) -> Result<(), AugmentationError> {
         if self.scaling.is_none() && grid.scales_used().iter().any(|&s| s != 1.0) {
-            return Err(format!(
-                "the grid scales by {:?} but [composition] order names no scaling symmetry",
-                grid.scales_used()
-            ));
+            return Err(AugmentationError::NoScaling {
+                scales: grid.scales_used(),
+            });
         }
         Ok(())
     }
@@ -406,164 +458,210 @@ impl<'a> Augmenter<'a> {
         scale: f64,
         grid: &GroupGrid,
     ) -> AugmentedSet {
-        let n = demo.n;
-        let len = demo.len();
-        // With an explicit list: the angles requested at this scale (and 0, the start).
-        let wanted: Option<Vec<Condition>> = grid.conditions.as_ref().map(|_| {
-            grid.conditions()
-                .into_iter()
-                .filter(|c| c.scale == scale)
-                .collect()
-        });
-        let angles = match &wanted {
-            Some(w) => {
-                let mut a: Vec<f64> = w.iter().map(|c| c.theta).collect();
-                a.push(0.0);
-                a.sort_by(f64::total_cmp);
-                a.dedup();
-                a
-            }
-            None => grid.angles(),
-        };
+        let (wanted, angles) = angles_at_scale(grid, scale);
         let zero = angles
             .iter()
             .position(|&a| a == 0.0)
             .expect("grid contains 0");
         let mut set = AugmentedSet::default();
-        // One workspace per field, so that each flow warm-starts from the last flow of
-        // the same field (FlowSettings::warm_start).
-        let mut lws = self.rotation.workspace();
-        let mut sws = self.rotation.workspace();
+        let flows = self.flow_through_angles(demo, scale, &angles, zero);
         let mut kws = self.kin.workspace();
-        {
-            // Per angle: positions and velocities for all samples, or a drop reason.
-            let mut q_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
-            let mut v_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
-            let mut failed: Vec<Option<DropReason>> = vec![None; angles.len()];
-            let (mut qs, mut vs) = (vec![0.0; n], vec![0.0; n]);
-            // Flow times and angle indices of the two orbits out from θ = 0.
-            let idx_pos: Vec<usize> = (zero + 1..angles.len()).collect();
-            let idx_neg: Vec<usize> = (0..zero).rev().collect();
-            let ts_pos: Vec<f64> = idx_pos.iter().map(|&k| angles[k]).collect();
-            let ts_neg: Vec<f64> = idx_neg.iter().map(|&k| angles[k]).collect();
-            for i in 0..len {
-                let (q, v) = (demo.q(i), demo.qdot(i));
-                if scale == 1.0 {
-                    qs.copy_from_slice(q);
-                    vs.copy_from_slice(v);
-                } else {
-                    let r = match &self.scaling {
-                        Some(sc) => sc
-                            .act_with_differential(&[scale.ln()], q, v, &mut qs, &mut vs, &mut sws)
-                            .map(|_| ())
-                            .map_err(|e| reason(&e)),
-                        None => Err(DropReason::Integration),
-                    };
-                    if let Err(r) = r {
-                        failed.iter_mut().for_each(|f| *f = f.or(Some(r)));
-                        break;
-                    }
-                }
-                q_out[zero].extend_from_slice(&qs);
-                v_out[zero].extend_from_slice(&vs);
-                // One flow out from θ = 0 in each direction through the grid's angles,
-                // up to the first angle an earlier sample already lost.
-                for (ts, idx) in [(&ts_pos, &idx_pos), (&ts_neg, &idx_neg)] {
-                    // Angles from the first lost one outwards are all marked lost.
-                    let live = idx
-                        .iter()
-                        .position(|&k| failed[k].is_some())
-                        .unwrap_or(idx.len());
-                    let mut reached = 0;
-                    let st = self.rotation.act_with_differential_through(
-                        &[1.0],
-                        &ts[..live],
-                        &qs,
-                        &vs,
-                        &mut lws,
-                        &mut |j, qa, va| {
-                            q_out[idx[j]].extend_from_slice(qa);
-                            v_out[idx[j]].extend_from_slice(va);
-                            reached = j + 1;
-                        },
-                    );
-                    // Every angle further out than a failure is unreachable for this
-                    // sample too.
-                    if let Err(e) = st {
-                        let r = reason(&e);
-                        for &k in &idx[reached..] {
-                            failed[k].get_or_insert(r);
-                        }
-                    }
-                }
-            }
-            for (ai, &theta) in angles.iter().enumerate() {
-                let sigmas: &[i8] = if grid.reflection || wanted.is_some() {
-                    &[1, -1]
-                } else {
-                    &[1]
+        for (ai, &theta) in angles.iter().enumerate() {
+            let sigmas: &[i8] = if grid.reflection || wanted.is_some() {
+                &[1, -1]
+            } else {
+                &[1]
+            };
+            for &sigma in sigmas {
+                let condition = Condition {
+                    theta,
+                    scale,
+                    reflection: sigma,
                 };
-                for &sigma in sigmas {
-                    let condition = Condition {
-                        theta,
-                        scale,
-                        reflection: sigma,
-                    };
-                    if wanted.as_ref().is_some_and(|w| {
-                        !w.iter().any(|c| c.theta == theta && c.reflection == sigma)
-                    }) {
-                        continue;
-                    }
-                    if let Some(r) = failed[ai] {
-                        set.dropped.push((demo.demo, condition, r));
-                        continue;
-                    }
-                    let (mut q, mut qd) = (q_out[ai].clone(), v_out[ai].clone());
-                    if sigma == -1 {
-                        let mut tmp = vec![0.0; n];
-                        for i in 0..len {
-                            self.reflection.apply(&q[i * n..(i + 1) * n], &mut tmp);
-                            q[i * n..(i + 1) * n].copy_from_slice(&tmp);
-                            self.reflection.apply(&qd[i * n..(i + 1) * n], &mut tmp);
-                            qd[i * n..(i + 1) * n].copy_from_slice(&tmp);
-                        }
-                    }
-                    let limits = self.kin.limits();
-                    let outside = (0..len).find_map(|i| {
-                        let qi = &q[i * n..(i + 1) * n];
-                        (!self.kin.within_limits(qi)).then(|| {
-                            qi.iter()
-                                .zip(limits)
-                                .position(|(v, l)| !l.contains(*v))
-                                .unwrap_or(0)
-                        })
-                    });
-                    if let Some(joint) = outside {
-                        set.dropped
-                            .push((demo.demo, condition, DropReason::JointLimits { joint }));
-                        continue;
-                    }
-                    let mut x = Vec::with_capacity(len * demo.m);
-                    for i in 0..len {
-                        x.extend(self.kin.forward(&q[i * n..(i + 1) * n], &mut kws).iter());
-                    }
-                    set.trajectories.push(Augmented {
-                        condition,
-                        traj: JointTrajectory {
-                            demo: demo.demo,
-                            n,
-                            m: demo.m,
-                            dt: demo.dt,
-                            q,
-                            qdot: qd,
-                            x,
-                        },
-                    });
+                if wanted
+                    .as_ref()
+                    .is_some_and(|w| !w.iter().any(|c| c.theta == theta && c.reflection == sigma))
+                {
+                    continue;
+                }
+                if let Some(r) = flows.failed[ai] {
+                    set.dropped.push((demo.demo, condition, r));
+                    continue;
+                }
+                let (q, qd) = (flows.q[ai].clone(), flows.v[ai].clone());
+                match self.reflect_and_check(demo, condition, q, qd, &mut kws) {
+                    Ok(a) => set.trajectories.push(a),
+                    Err(r) => set.dropped.push((demo.demo, condition, r)),
                 }
             }
         }
         set
     }
+
+    /// Every sample of `demo` scaled by `scale`, then carried by one rotation flow out from
+    /// θ = 0 in each direction through `angles` (`angles[zero] = 0`).
+    fn flow_through_angles(
+        &self,
+        demo: &JointTrajectory,
+        scale: f64,
+        angles: &[f64],
+        zero: usize,
+    ) -> AngleFlows {
+        let n = demo.n;
+        let len = demo.len();
+        // One workspace per field, so that each flow warm-starts from the last flow of
+        // the same field (FlowSettings::warm_start).
+        let mut lws = self.rotation.workspace();
+        let mut sws = self.rotation.workspace();
+        // Per angle: positions and velocities for all samples, or a drop reason.
+        let mut q_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
+        let mut v_out: Vec<Vec<f64>> = vec![Vec::with_capacity(len * n); angles.len()];
+        let mut failed: Vec<Option<DropReason>> = vec![None; angles.len()];
+        let (mut qs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+        // Flow times and angle indices of the two orbits out from θ = 0.
+        let idx_pos: Vec<usize> = (zero + 1..angles.len()).collect();
+        let idx_neg: Vec<usize> = (0..zero).rev().collect();
+        let ts_pos: Vec<f64> = idx_pos.iter().map(|&k| angles[k]).collect();
+        let ts_neg: Vec<f64> = idx_neg.iter().map(|&k| angles[k]).collect();
+        for i in 0..len {
+            let (q, v) = (demo.q(i), demo.qdot(i));
+            if scale == 1.0 {
+                qs.copy_from_slice(q);
+                vs.copy_from_slice(v);
+            } else {
+                let r = match &self.scaling {
+                    Some(sc) => sc
+                        .act_with_differential(&[scale.ln()], q, v, &mut qs, &mut vs, &mut sws)
+                        .map(|_| ())
+                        .map_err(|e| reason(&e)),
+                    None => Err(DropReason::Integration),
+                };
+                if let Err(r) = r {
+                    failed.iter_mut().for_each(|f| *f = f.or(Some(r)));
+                    break;
+                }
+            }
+            q_out[zero].extend_from_slice(&qs);
+            v_out[zero].extend_from_slice(&vs);
+            // One flow out from θ = 0 in each direction through the grid's angles,
+            // up to the first angle an earlier sample already lost.
+            for (ts, idx) in [(&ts_pos, &idx_pos), (&ts_neg, &idx_neg)] {
+                // Angles from the first lost one outwards are all marked lost.
+                let live = idx
+                    .iter()
+                    .position(|&k| failed[k].is_some())
+                    .unwrap_or(idx.len());
+                let mut reached = 0;
+                let st = self.rotation.act_with_differential_through(
+                    &[1.0],
+                    &ts[..live],
+                    &qs,
+                    &vs,
+                    &mut lws,
+                    &mut |j, qa, va| {
+                        q_out[idx[j]].extend_from_slice(qa);
+                        v_out[idx[j]].extend_from_slice(va);
+                        reached = j + 1;
+                    },
+                );
+                // Every angle further out than a failure is unreachable for this
+                // sample too.
+                if let Err(e) = st {
+                    let r = reason(&e);
+                    for &k in &idx[reached..] {
+                        failed[k].get_or_insert(r);
+                    }
+                }
+            }
+        }
+        AngleFlows {
+            q: q_out,
+            v: v_out,
+            failed,
+        }
+    }
+
+    /// The flowed positions `q` and velocities `qd` of `demo` under `condition`: reflected
+    /// when `σ = −1`, refused outside the joint limits, with their task path.
+    fn reflect_and_check(
+        &self,
+        demo: &JointTrajectory,
+        condition: Condition,
+        mut q: Vec<f64>,
+        mut qd: Vec<f64>,
+        kws: &mut KinematicsWorkspace,
+    ) -> Result<Augmented, DropReason> {
+        let (n, len) = (demo.n, demo.len());
+        if condition.reflection == -1 {
+            let mut tmp = vec![0.0; n];
+            for i in 0..len {
+                self.reflection.apply(&q[i * n..(i + 1) * n], &mut tmp);
+                q[i * n..(i + 1) * n].copy_from_slice(&tmp);
+                self.reflection.apply(&qd[i * n..(i + 1) * n], &mut tmp);
+                qd[i * n..(i + 1) * n].copy_from_slice(&tmp);
+            }
+        }
+        let limits = self.kin.limits();
+        let outside = (0..len).find_map(|i| {
+            let qi = &q[i * n..(i + 1) * n];
+            (!self.kin.within_limits(qi)).then(|| {
+                qi.iter()
+                    .zip(limits)
+                    .position(|(v, l)| !l.contains(*v))
+                    .unwrap_or(0)
+            })
+        });
+        if let Some(joint) = outside {
+            return Err(DropReason::JointLimits { joint });
+        }
+        let mut x = Vec::with_capacity(len * demo.m);
+        for i in 0..len {
+            x.extend(self.kin.forward(&q[i * n..(i + 1) * n], kws).iter());
+        }
+        Ok(Augmented {
+            condition,
+            traj: JointTrajectory {
+                demo: demo.demo,
+                n,
+                m: demo.m,
+                dt: demo.dt,
+                q,
+                qdot: qd,
+                x,
+            },
+        })
+    }
+}
+
+/// Per grid angle: the flowed positions and velocities of every sample (row-major
+/// `len × n`), or why the angle was lost.
+struct AngleFlows {
+    q: Vec<Vec<f64>>,
+    v: Vec<Vec<f64>>,
+    failed: Vec<Option<DropReason>>,
+}
+
+/// The conditions an explicit list asks for at `scale` (`None` for a grid) and the angles
+/// to flow through at that scale, ascending and containing 0.
+fn angles_at_scale(grid: &GroupGrid, scale: f64) -> (Option<Vec<Condition>>, Vec<f64>) {
+    // With an explicit list: the angles requested at this scale (and 0, the start).
+    let wanted: Option<Vec<Condition>> = grid.conditions.as_ref().map(|_| {
+        grid.conditions()
+            .into_iter()
+            .filter(|c| c.scale == scale)
+            .collect()
+    });
+    let angles = match &wanted {
+        Some(w) => {
+            let mut a: Vec<f64> = w.iter().map(|c| c.theta).collect();
+            a.push(0.0);
+            a.sort_by(f64::total_cmp);
+            a.dedup();
+            a
+        }
+        None => grid.angles(),
+    };
+    (wanted, angles)
 }
 
 /// The lifted flows' settings of the letter task's augmenter (and of canonicalised
@@ -590,14 +688,17 @@ pub fn letter_augmenter<'a>(
         reflection: rho,
         rotation: rot,
         scaling: sc,
-    } = composition_parts(built, order)?;
+    } = composition_parts(built, order).map_err(|e| e.to_string())?;
     let flow = letter_flow();
     Augmenter::new(
         kin,
-        LiftedAction::new(kin, rot, flow)?,
-        sc.map(|sc| LiftedAction::new(kin, sc, flow)).transpose()?,
+        LiftedAction::new(kin, rot, flow).map_err(|e| e.to_string())?,
+        sc.map(|sc| LiftedAction::new(kin, sc, flow))
+            .transpose()
+            .map_err(|e| e.to_string())?,
         rho,
     )
+    .map_err(|e| e.to_string())
 }
 
 /// The nominal trajectories of `demo` under each of `conditions`, for the composition
@@ -615,7 +716,7 @@ pub fn nominal_trajectories(
     let augmenter = letter_augmenter(kin, built, order)?;
     let mut out = Vec::with_capacity(conditions.len());
     for c in conditions {
-        c.validate()?;
+        c.validate().map_err(|e| e.to_string())?;
         let deg = c.theta.to_degrees().abs();
         let grid = GroupGrid {
             rotation_step_deg: (deg > 1e-9).then_some(deg),
@@ -624,7 +725,7 @@ pub fn nominal_trajectories(
             max_rotation_deg: Some(deg),
             conditions: None,
         };
-        grid.validate()?;
+        grid.validate().map_err(|e| e.to_string())?;
         let set = augmenter.augment_scale(demo, c.scale, &grid);
         let same = |a: &Condition| (a.theta - c.theta).abs() < 1e-9 && a.reflection == c.reflection;
         if let Some(a) = set.trajectories.iter().find(|a| same(&a.condition)) {

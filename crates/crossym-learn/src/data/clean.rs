@@ -86,30 +86,72 @@ impl Default for CleanConfig {
 
 impl CleanConfig {
     /// Checks every setting for a resampling step `dt` (s); the message names the bad one.
-    pub fn validate(&self, dt: f64) -> Result<(), String> {
+    pub fn validate(&self, dt: f64) -> Result<(), CleanConfigError> {
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(format!("dt = {dt} must be positive"));
+            return Err(CleanConfigError::Dt { dt });
         }
         if !(self.max_gap_s.is_finite() && self.max_gap_s >= dt) {
-            return Err(format!("max_gap_s = {} must be ≥ dt", self.max_gap_s));
+            return Err(CleanConfigError::MaxGap {
+                max_gap_s: self.max_gap_s,
+            });
         }
         if !(self.idle_speed.is_finite() && self.idle_speed >= 0.0) {
-            return Err(format!("idle_speed = {} must be ≥ 0", self.idle_speed));
+            return Err(CleanConfigError::IdleSpeed {
+                idle_speed: self.idle_speed,
+            });
         }
         if let Some(s) = self.split_idle_s {
             if !(s.is_finite() && s > 0.0) {
-                return Err(format!("split_idle_s = {s} must be positive"));
+                return Err(CleanConfigError::SplitIdle { split_idle_s: s });
             }
         }
         if let Differentiator::SavitzkyGolay { half_window, order } = self.differentiator {
             if !(1..=4).contains(&order) || half_window == 0 || 2 * half_window < order {
-                return Err(format!(
-                    "Savitzky–Golay half_window = {half_window}, order = {order}: need 1 ≤ order ≤ 4 and 2·half_window ≥ order"
-                ));
+                return Err(CleanConfigError::SavitzkyGolay { half_window, order });
             }
         }
         Ok(())
     }
+}
+
+/// Why cleaning settings are refused; the message names the bad setting.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CleanConfigError {
+    /// The resampling step is not positive.
+    #[error("dt = {dt} must be positive")]
+    Dt {
+        /// The step (s).
+        dt: f64,
+    },
+    /// The largest gap is shorter than one step.
+    #[error("max_gap_s = {max_gap_s} must be ≥ dt")]
+    MaxGap {
+        /// The setting (s).
+        max_gap_s: f64,
+    },
+    /// The idle speed is negative.
+    #[error("idle_speed = {idle_speed} must be ≥ 0")]
+    IdleSpeed {
+        /// The setting (rad/s or m/s).
+        idle_speed: f64,
+    },
+    /// The idle time that splits a recording is not positive.
+    #[error("split_idle_s = {split_idle_s} must be positive")]
+    SplitIdle {
+        /// The setting (s).
+        split_idle_s: f64,
+    },
+    /// The Savitzky–Golay window cannot fit a polynomial of the order asked for.
+    #[error(
+        "Savitzky–Golay half_window = {half_window}, order = {order}: need 1 ≤ order ≤ 4 and 2·half_window ≥ order"
+    )]
+    SavitzkyGolay {
+        /// Half window (samples).
+        half_window: usize,
+        /// Polynomial order.
+        order: usize,
+    },
 }
 
 /// One clean demonstration on a uniform grid.
@@ -295,8 +337,9 @@ pub fn clean(
     cfg: &CleanConfig,
     limits: Option<&[JointLimits]>,
 ) -> Result<(Vec<CleanDemo>, CleanReport), CleanError> {
-    cfg.validate(dt)
-        .map_err(|message| CleanError::Settings { message })?;
+    cfg.validate(dt).map_err(|e| CleanError::Settings {
+        message: e.to_string(),
+    })?;
     let n = rec.joints.len();
     let (q, max_gap) = resample(rec, dt, cfg)?;
     let len = q.len() / n.max(1);

@@ -111,44 +111,103 @@ impl Demonstration {
     }
 
     /// Checks lengths, sample count, finiteness and increasing time; says what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), DemonstrationError> {
         let n = self.t.len();
         if self.pos.len() != n || self.vel.len() != n {
-            return Err(format!(
-                "inconsistent lengths: {n} times, {} positions, {} velocities",
-                self.pos.len(),
-                self.vel.len()
-            ));
+            return Err(DemonstrationError::Lengths {
+                times: n,
+                positions: self.pos.len(),
+                velocities: self.vel.len(),
+            });
         }
         if n < 2 {
-            return Err(format!("{n} sample(s), at least 2 are needed"));
+            return Err(DemonstrationError::TooShort { samples: n });
         }
         for i in 0..n {
             if !self.t[i].is_finite() {
-                return Err(format!("sample {i}: t is not finite ({})", self.t[i]));
+                return Err(DemonstrationError::NonFiniteTime {
+                    sample: i,
+                    t: self.t[i],
+                });
             }
             if self.pos[i].iter().any(|v| !v.is_finite()) {
-                return Err(format!(
-                    "sample {i}: position {:?} is not finite",
-                    self.pos[i]
-                ));
+                return Err(DemonstrationError::NonFinitePosition {
+                    sample: i,
+                    position: self.pos[i],
+                });
             }
             if self.vel[i].iter().any(|v| !v.is_finite()) {
-                return Err(format!(
-                    "sample {i}: velocity {:?} is not finite",
-                    self.vel[i]
-                ));
+                return Err(DemonstrationError::NonFiniteVelocity {
+                    sample: i,
+                    velocity: self.vel[i],
+                });
             }
             if i > 0 && self.t[i] <= self.t[i - 1] {
-                return Err(format!(
-                    "sample {i}: t = {} s does not increase (previous {} s)",
-                    self.t[i],
-                    self.t[i - 1]
-                ));
+                return Err(DemonstrationError::TimeNotIncreasing {
+                    sample: i,
+                    t: self.t[i],
+                    previous: self.t[i - 1],
+                });
             }
         }
         Ok(())
     }
+}
+
+/// What is wrong with one [`Demonstration`] ([`Demonstration::validate`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum DemonstrationError {
+    /// Times, positions and velocities differ in number.
+    #[error("inconsistent lengths: {times} times, {positions} positions, {velocities} velocities")]
+    Lengths {
+        /// Number of times.
+        times: usize,
+        /// Number of positions.
+        positions: usize,
+        /// Number of velocities.
+        velocities: usize,
+    },
+    /// Fewer than 2 samples.
+    #[error("{samples} sample(s), at least 2 are needed")]
+    TooShort {
+        /// Number of samples.
+        samples: usize,
+    },
+    /// A time is NaN or infinite.
+    #[error("sample {sample}: t is not finite ({t})")]
+    NonFiniteTime {
+        /// 0-based sample index.
+        sample: usize,
+        /// The time (s).
+        t: f64,
+    },
+    /// A position is NaN or infinite.
+    #[error("sample {sample}: position {position:?} is not finite")]
+    NonFinitePosition {
+        /// 0-based sample index.
+        sample: usize,
+        /// The position (mm).
+        position: [f64; 2],
+    },
+    /// A velocity is NaN or infinite.
+    #[error("sample {sample}: velocity {velocity:?} is not finite")]
+    NonFiniteVelocity {
+        /// 0-based sample index.
+        sample: usize,
+        /// The velocity (mm/s).
+        velocity: [f64; 2],
+    },
+    /// A time does not increase.
+    #[error("sample {sample}: t = {t} s does not increase (previous {previous} s)")]
+    TimeNotIncreasing {
+        /// 0-based sample index.
+        sample: usize,
+        /// Its time (s).
+        t: f64,
+        /// The previous sample's time (s).
+        previous: f64,
+    },
 }
 
 /// All demonstrations of one letter (e.g. `CShape`), in file order.
@@ -199,11 +258,6 @@ impl LetterSet {
 
     /// Parses CSV text; `name` becomes [`LetterSet::name`], `file` names it in errors.
     pub fn from_csv_str(name: &str, file: &str, text: &str) -> Result<Self, DataError> {
-        let csv_err = |line: usize, message: String| DataError::Csv {
-            file: file.to_string(),
-            line,
-            message,
-        };
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text
             .lines()
@@ -220,109 +274,13 @@ impl LetterSet {
             .split(',')
             .map(|h| h.trim().trim_matches('"'))
             .collect();
-        let mut col = [0usize; 6];
-        for (k, want) in CSV_COLUMNS.iter().enumerate() {
-            let hits: Vec<usize> = names
-                .iter()
-                .enumerate()
-                .filter(|(_, n)| *n == want)
-                .map(|(i, _)| i)
-                .collect();
-            match hits.as_slice() {
-                [i] => col[k] = *i,
-                [] => {
-                    return Err(csv_err(
-                        header_line,
-                        format!(
-                            "missing column `{want}` (header has: {}; expected demo,t,x,y,vx,vy)",
-                            names.join(", ")
-                        ),
-                    ))
-                }
-                _ => {
-                    return Err(csv_err(
-                        header_line,
-                        format!("column `{want}` appears {} times", hits.len()),
-                    ))
-                }
-            }
-        }
+        let col = csv_columns(file, header_line, &names)?;
 
         let mut demos: Vec<Demonstration> = Vec::new();
         let mut ids: Vec<(u64, usize)> = Vec::new(); // (demo number, first line)
         for (line, row) in lines {
-            let fields: Vec<&str> = row.split(',').map(str::trim).collect();
-            if fields.len() != names.len() {
-                return Err(csv_err(
-                    line,
-                    format!(
-                        "{} fields, the header has {} columns",
-                        fields.len(),
-                        names.len()
-                    ),
-                ));
-            }
-            let raw_id = fields[col[0]].trim_matches('"');
-            let id: u64 = raw_id.parse().map_err(|_| {
-                csv_err(
-                    line,
-                    format!("column demo is not a non-negative integer: `{raw_id}`"),
-                )
-            })?;
-            let mut v = [0.0; 5];
-            for k in 0..5 {
-                let name = CSV_COLUMNS[k + 1];
-                let raw = fields[col[k + 1]].trim_matches('"');
-                let x: f64 = raw.parse().map_err(|_| {
-                    csv_err(line, format!("column {name} is not a number: `{raw}`"))
-                })?;
-                if !x.is_finite() {
-                    return Err(csv_err(
-                        line,
-                        format!("column {name} is not finite: `{raw}`"),
-                    ));
-                }
-                v[k] = x;
-            }
-            match ids.last() {
-                Some(&(prev, _)) if prev == id => {}
-                Some(&(prev, _)) if prev + 1 == id => {}
-                Some(&(prev, _)) => {
-                    return Err(csv_err(
-                        line,
-                        format!(
-                            "demo {id} follows demo {prev}: demos must be numbered contiguously with their rows together"
-                        ),
-                    ))
-                }
-                None if id <= 1 => {}
-                None => return Err(csv_err(line, format!("first demo is numbered {id}, expected 0 or 1"))),
-            }
-            if ids.last().map(|&(p, _)| p) != Some(id) {
-                ids.push((id, line));
-                demos.push(Demonstration {
-                    t: Vec::new(),
-                    pos: Vec::new(),
-                    vel: Vec::new(),
-                });
-            }
-            let d = demos
-                .last_mut()
-                .ok_or_else(|| csv_err(line, "internal: no current demo".into()))?;
-            if let Some(&prev) = d.t.last() {
-                if v[0] <= prev {
-                    return Err(csv_err(
-                        line,
-                        format!(
-                            "t = {} s does not increase within demo {id} (previous row: {prev} s)",
-                            v[0]
-                        ),
-                    ));
-                }
-            }
-            d.t.push(v[0]);
-            d.pos.push([v[1], v[2]]);
-            d.vel.push([v[3], v[4]]);
+            let (id, v) = csv_row(file, line, row, names.len(), &col)?;
+            csv_push(file, line, id, v, &mut demos, &mut ids)?;
         }
         if demos.is_empty() {
             return Err(DataError::Content {
@@ -331,10 +289,10 @@ impl LetterSet {
             });
         }
         for (d, &(id, first)) in demos.iter().zip(&ids) {
-            d.validate().map_err(|message| DataError::Demo {
+            d.validate().map_err(|e| DataError::Demo {
                 file: file.to_string(),
                 demo: format!("demo {id} (from line {first})"),
-                message,
+                message: e.to_string(),
             })?;
         }
         Ok(Self {
@@ -432,7 +390,7 @@ impl LetterSet {
                 pos: rows2(pos, "pos")?,
                 vel: rows2(vel, "vel")?,
             };
-            d.validate().map_err(demo_err)?;
+            d.validate().map_err(|e| demo_err(e.to_string()))?;
             out.push(d);
         }
         Ok(Self {
@@ -445,6 +403,148 @@ impl LetterSet {
     pub fn samples(&self) -> usize {
         self.demos.iter().map(Demonstration::len).sum()
     }
+}
+
+/// A CSV error at `line` of `file`.
+fn csv_error(file: &str, line: usize, message: String) -> DataError {
+    DataError::Csv {
+        file: file.to_string(),
+        line,
+        message,
+    }
+}
+
+/// Index of each of [`CSV_COLUMNS`] in the header `names` (at `header_line` of `file`).
+fn csv_columns(file: &str, header_line: usize, names: &[&str]) -> Result<[usize; 6], DataError> {
+    let csv_err = |line: usize, message: String| csv_error(file, line, message);
+    let mut col = [0usize; 6];
+    for (k, want) in CSV_COLUMNS.iter().enumerate() {
+        let hits: Vec<usize> = names
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| *n == want)
+            .map(|(i, _)| i)
+            .collect();
+        match hits.as_slice() {
+            [i] => col[k] = *i,
+            [] => {
+                return Err(csv_err(
+                    header_line,
+                    format!(
+                        "missing column `{want}` (header has: {}; expected demo,t,x,y,vx,vy)",
+                        names.join(", ")
+                    ),
+                ))
+            }
+            _ => {
+                return Err(csv_err(
+                    header_line,
+                    format!("column `{want}` appears {} times", hits.len()),
+                ))
+            }
+        }
+    }
+    Ok(col)
+}
+
+/// The demonstration number and `t, x, y, vx, vy` of the CSV row `row` at `line` of
+/// `file`, whose header has `columns` columns at `col`.
+fn csv_row(
+    file: &str,
+    line: usize,
+    row: &str,
+    columns: usize,
+    col: &[usize; 6],
+) -> Result<(u64, [f64; 5]), DataError> {
+    let csv_err = |line: usize, message: String| csv_error(file, line, message);
+    let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+    if fields.len() != columns {
+        return Err(csv_err(
+            line,
+            format!(
+                "{} fields, the header has {} columns",
+                fields.len(),
+                columns
+            ),
+        ));
+    }
+    let raw_id = fields[col[0]].trim_matches('"');
+    let id: u64 = raw_id.parse().map_err(|_| {
+        csv_err(
+            line,
+            format!("column demo is not a non-negative integer: `{raw_id}`"),
+        )
+    })?;
+    let mut v = [0.0; 5];
+    for k in 0..5 {
+        let name = CSV_COLUMNS[k + 1];
+        let raw = fields[col[k + 1]].trim_matches('"');
+        let x: f64 = raw
+            .parse()
+            .map_err(|_| csv_err(line, format!("column {name} is not a number: `{raw}`")))?;
+        if !x.is_finite() {
+            return Err(csv_err(
+                line,
+                format!("column {name} is not finite: `{raw}`"),
+            ));
+        }
+        v[k] = x;
+    }
+    Ok((id, v))
+}
+
+/// Appends the sample `v` of demonstration `id` (CSV `line` of `file`) to `demos`, opening
+/// a new demonstration (listed in `ids` with its first line) when `id` changes; refuses
+/// numbers out of sequence and times that do not increase.
+fn csv_push(
+    file: &str,
+    line: usize,
+    id: u64,
+    v: [f64; 5],
+    demos: &mut Vec<Demonstration>,
+    ids: &mut Vec<(u64, usize)>,
+) -> Result<(), DataError> {
+    let csv_err = |line: usize, message: String| csv_error(file, line, message);
+    match ids.last() {
+        Some(&(prev, _)) if prev == id => {}
+        Some(&(prev, _)) if prev + 1 == id => {}
+        Some(&(prev, _)) => {
+            return Err(csv_err(
+                line,
+                format!(
+                    "demo {id} follows demo {prev}: demos must be numbered contiguously with their rows together"
+                ),
+            ))
+        }
+        None if id <= 1 => {}
+        None => return Err(csv_err(line, format!("first demo is numbered {id}, expected 0 or 1"))),
+    }
+    if ids.last().map(|&(p, _)| p) != Some(id) {
+        ids.push((id, line));
+        demos.push(Demonstration {
+            t: Vec::new(),
+            pos: Vec::new(),
+            vel: Vec::new(),
+        });
+    }
+    let d = demos
+        .last_mut()
+        .ok_or_else(|| csv_err(line, "internal: no current demo".into()))?;
+    if let Some(&prev) = d.t.last() {
+        if v[0] <= prev {
+            return Err(csv_err(
+                line,
+                format!(
+                    "t = {} s does not increase within demo {id} (previous row: {prev} s)",
+                    v[0]
+                ),
+            ));
+        }
+    }
+    d.t.push(v[0]);
+    d.pos.push([v[1], v[2]]);
+    d.vel.push([v[3], v[4]]);
+    Ok(())
 }
 
 fn stem(path: &Path) -> String {

@@ -367,23 +367,7 @@ impl LetterTaskConfig {
     /// Loads the letters (paths relative to `base_dir`) and tracks them with `kin`.
     pub fn build(&self, kin: &Kinematics, base_dir: &Path) -> Result<LetterDemos, DataError> {
         let chains = kin.chains();
-        if self.arms.len() != chains.len() {
-            return Err(invalid(format!(
-                "[letters] has {} arms, the robot has {} chains",
-                self.arms.len(),
-                chains.len()
-            )));
-        }
-        if !(self.half_range.is_finite()
-            && self.half_range > 0.0
-            && self.dt.is_finite()
-            && self.dt > 0.0)
-        {
-            return Err(invalid("[letters] half_range and dt must be positive"));
-        }
-        if !(self.tracking_damping.is_finite() && self.tracking_damping >= 0.0) {
-            return Err(invalid("[letters] tracking_damping must be non-negative"));
-        }
+        self.check_settings(chains.len())?;
         let (n, m) = (kin.dof(), kin.task_dim());
         let mut rest = vec![0.0; n];
         let mut targets: Vec<Vec<Vec<f64>>> = Vec::new(); // [demo][sample][m]
@@ -392,27 +376,8 @@ impl LetterTaskConfig {
         // Per-demonstration start postures: (demo index, first joint, joint values).
         let mut starts: Vec<(usize, usize, Vec<f64>)> = Vec::new();
         for (ci, (arm, chain)) in self.arms.iter().zip(chains).enumerate() {
-            if arm.chain != chain.name {
-                return Err(invalid(format!(
-                    "[letters] arm {ci} names chain `{}`, expected `{}` (chain order)",
-                    arm.chain, chain.name
-                )));
-            }
+            check_arm(ci, arm, chain)?;
             let d = chain.task.dim();
-            if arm.rest.len() != chain.dof() {
-                return Err(invalid(format!(
-                    "[letters] arm `{}`: needs {} rest values, got {}",
-                    arm.chain,
-                    chain.dof(),
-                    arm.rest.len()
-                )));
-            }
-            if arm.rest.iter().any(|v| !v.is_finite()) {
-                return Err(invalid(format!(
-                    "[letters] arm `{}`: rest must be finite",
-                    arm.chain
-                )));
-            }
             rest[kin.q_offset(ci)..kin.q_offset(ci) + chain.dof()].copy_from_slice(&arm.rest);
             let mut ws = chain.workspace();
             let p0: Vec<f64> = {
@@ -426,44 +391,8 @@ impl LetterTaskConfig {
                     starts.push((k, kin.q_offset(ci), q.clone()));
                 }
             }
-            let [ds, de, _, _] = self.drop;
-            // Every arm with demonstrations must agree on their number and lengths.
-            if !arm_paths.is_empty() {
-                if counts.is_some_and(|c| c != arm_paths.len()) {
-                    return Err(invalid(format!(
-                        "[letters] arm `{}` has {} demonstrations, another arm {}",
-                        arm.chain,
-                        arm_paths.len(),
-                        counts.unwrap_or(0)
-                    )));
-                }
-                counts = Some(arm_paths.len());
-            }
-            for (k, path) in arm_paths.iter().enumerate() {
-                if path.len() <= ds + de + 1 {
-                    return Err(invalid(format!(
-                        "[letters] arm `{}`: demo {} too short",
-                        arm.chain,
-                        k + 1
-                    )));
-                }
-                if targets.len() <= k {
-                    targets.push(Vec::new());
-                }
-                let kept = &path[ds..path.len() - de];
-                let t = &mut targets[k];
-                if t.is_empty() {
-                    t.resize(kept.len(), vec![f64::NAN; m]);
-                } else if t.len() != kept.len() {
-                    return Err(invalid(format!(
-                        "demo {}: arms' demonstrations have different lengths",
-                        k + 1
-                    )));
-                }
-                for (s, p) in kept.iter().enumerate() {
-                    t[s][xo..xo + d].copy_from_slice(p);
-                }
-            }
+            let columns = TaskColumns { xo, d, m };
+            self.add_targets(arm, &arm_paths, columns, &mut targets, &mut counts)?;
             rest_x.push((xo, p0));
         }
         if targets.is_empty() {
@@ -507,6 +436,119 @@ impl LetterTaskConfig {
             test: self.test.clone(),
         })
     }
+
+    /// Checks the arm count against the robot's `chains` and the numeric settings.
+    fn check_settings(&self, chains: usize) -> Result<(), DataError> {
+        if self.arms.len() != chains {
+            return Err(invalid(format!(
+                "[letters] has {} arms, the robot has {} chains",
+                self.arms.len(),
+                chains
+            )));
+        }
+        if !(self.half_range.is_finite()
+            && self.half_range > 0.0
+            && self.dt.is_finite()
+            && self.dt > 0.0)
+        {
+            return Err(invalid("[letters] half_range and dt must be positive"));
+        }
+        if !(self.tracking_damping.is_finite() && self.tracking_damping >= 0.0) {
+            return Err(invalid("[letters] tracking_damping must be non-negative"));
+        }
+        Ok(())
+    }
+
+    /// Writes the kept samples of `arm`'s task paths (after `drop`) into its `columns` of
+    /// `targets` (`[demo][sample][m]`, NaN where unset); every arm with demonstrations must
+    /// agree on their number (`counts`) and lengths.
+    fn add_targets(
+        &self,
+        arm: &ArmLetter,
+        arm_paths: &[Vec<Vec<f64>>],
+        columns: TaskColumns,
+        targets: &mut Vec<Vec<Vec<f64>>>,
+        counts: &mut Option<usize>,
+    ) -> Result<(), DataError> {
+        let TaskColumns { xo, d, m } = columns;
+        let [ds, de, _, _] = self.drop;
+        // Every arm with demonstrations must agree on their number and lengths.
+        if !arm_paths.is_empty() {
+            if counts.is_some_and(|c| c != arm_paths.len()) {
+                return Err(invalid(format!(
+                    "[letters] arm `{}` has {} demonstrations, another arm {}",
+                    arm.chain,
+                    arm_paths.len(),
+                    counts.unwrap_or(0)
+                )));
+            }
+            *counts = Some(arm_paths.len());
+        }
+        for (k, path) in arm_paths.iter().enumerate() {
+            if path.len() <= ds + de + 1 {
+                return Err(invalid(format!(
+                    "[letters] arm `{}`: demo {} too short",
+                    arm.chain,
+                    k + 1
+                )));
+            }
+            if targets.len() <= k {
+                targets.push(Vec::new());
+            }
+            let kept = &path[ds..path.len() - de];
+            let t = &mut targets[k];
+            if t.is_empty() {
+                t.resize(kept.len(), vec![f64::NAN; m]);
+            } else if t.len() != kept.len() {
+                return Err(invalid(format!(
+                    "demo {}: arms' demonstrations have different lengths",
+                    k + 1
+                )));
+            }
+            for (s, p) in kept.iter().enumerate() {
+                t[s][xo..xo + d].copy_from_slice(p);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Where one arm's task point sits in the stacked task vector: offset `xo`, dimension `d`,
+/// of `m` task coordinates in all.
+#[derive(Clone, Copy)]
+struct TaskColumns {
+    xo: usize,
+    d: usize,
+    m: usize,
+}
+
+/// Checks that arm `ci` names `chain` and has a finite rest posture of the chain's size.
+fn check_arm(
+    ci: usize,
+    arm: &ArmLetter,
+    chain: &crossym_math::kinematics::Chain,
+) -> Result<(), DataError> {
+    if arm.chain != chain.name {
+        return Err(invalid(format!(
+            "[letters] arm {ci} names chain `{}`, expected `{}` (chain order)",
+            arm.chain, chain.name
+        )));
+    }
+    if arm.rest.len() != chain.dof() {
+        return Err(invalid(format!(
+            "[letters] arm `{}`: needs {} rest values, got {}",
+            arm.chain,
+            chain.dof(),
+            arm.rest.len()
+        )));
+    }
+    if arm.rest.iter().any(|v| !v.is_finite()) {
+        return Err(invalid(format!(
+            "[letters] arm `{}`: rest must be finite",
+            arm.chain
+        )));
+    }
+    Ok(())
 }
 
 /// How task-space targets are tracked into joint space (`[letters]` / task sources).

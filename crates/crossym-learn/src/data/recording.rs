@@ -133,26 +133,7 @@ pub fn read_joint_states(
     stamps: StampSource,
 ) -> Result<JointRecording, RecordingError> {
     let path = bag.path.clone();
-    let ti = bag
-        .topic(topic)
-        .ok_or_else(|| RecordingError::TopicAbsent {
-            bag: path.clone(),
-            topic: topic.into(),
-            available: bag
-                .topics
-                .iter()
-                .map(|t| format!("{} ({})", t.name, t.ros_type))
-                .collect::<Vec<_>>()
-                .join(", "),
-        })?;
-    let ros_type = &bag.topics[ti].ros_type;
-    if ros_type != "sensor_msgs/msg/JointState" {
-        return Err(RecordingError::WrongType {
-            bag: path,
-            topic: topic.into(),
-            ros_type: ros_type.clone(),
-        });
-    }
+    let ti = joint_state_topic(bag, topic)?;
     let n = joints.len();
     let mut t_ns: Vec<i128> = Vec::new();
     let mut q = Vec::new();
@@ -190,25 +171,7 @@ pub fn read_joint_states(
             )));
         }
         if js.name != layout {
-            for (j, want) in joints.iter().enumerate() {
-                let hits: Vec<usize> = js
-                    .name
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, nm)| *nm == want)
-                    .map(|(c, _)| c)
-                    .collect();
-                cols[j] = match hits.as_slice() {
-                    [c] => *c,
-                    [] => {
-                        return Err(fail(format!(
-                            "configured joint `{want}` is missing (the message names: {})",
-                            js.name.join(", ")
-                        )))
-                    }
-                    _ => return Err(fail(format!("joint `{want}` is named twice"))),
-                };
-            }
+            joint_columns(&js.name, joints, &mut cols).map_err(fail)?;
             for nm in &js.name {
                 if !joints.contains(nm) {
                     ignored.insert(nm.clone());
@@ -232,16 +195,7 @@ pub fn read_joint_states(
         };
         if let Some(&prev) = t_ns.last() {
             if ns <= prev {
-                return Err(fail(format!(
-                    "{} stamp {:.6} s is not after the previous one ({:+.6} s){}",
-                    match stamps {
-                        StampSource::Header => "header",
-                        StampSource::Receive => "receive",
-                    },
-                    ns as f64 * 1e-9,
-                    (ns - prev) as f64 * 1e-9,
-                    if ns == prev { ": a duplicate" } else { "" }
-                )));
+                return Err(fail(not_after(stamps, ns, prev)));
             }
         }
         t_ns.push(ns);
@@ -264,6 +218,69 @@ pub fn read_joint_states(
         q,
         ignored: ignored.into_iter().collect(),
     })
+}
+
+/// Index of `topic` in `bag`, which must carry `sensor_msgs/msg/JointState`.
+fn joint_state_topic(bag: &Bag, topic: &str) -> Result<usize, RecordingError> {
+    let ti = bag
+        .topic(topic)
+        .ok_or_else(|| RecordingError::TopicAbsent {
+            bag: bag.path.clone(),
+            topic: topic.into(),
+            available: bag
+                .topics
+                .iter()
+                .map(|t| format!("{} ({})", t.name, t.ros_type))
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?;
+    let ros_type = &bag.topics[ti].ros_type;
+    if ros_type != "sensor_msgs/msg/JointState" {
+        return Err(RecordingError::WrongType {
+            bag: bag.path.clone(),
+            topic: topic.into(),
+            ros_type: ros_type.clone(),
+        });
+    }
+    Ok(ti)
+}
+
+/// Sets `cols[j]` to the column of configured joint `joints[j]` in a message's `names`;
+/// the problem when one is missing or named twice.
+fn joint_columns(names: &[String], joints: &[String], cols: &mut [usize]) -> Result<(), String> {
+    for (j, want) in joints.iter().enumerate() {
+        let hits: Vec<usize> = names
+            .iter()
+            .enumerate()
+            .filter(|(_, nm)| *nm == want)
+            .map(|(c, _)| c)
+            .collect();
+        cols[j] = match hits.as_slice() {
+            [c] => *c,
+            [] => {
+                return Err(format!(
+                    "configured joint `{want}` is missing (the message names: {})",
+                    names.join(", ")
+                ))
+            }
+            _ => return Err(format!("joint `{want}` is named twice")),
+        };
+    }
+    Ok(())
+}
+
+/// The problem of a stamp `ns` (from `stamps`) not after the previous one `prev` (ns).
+fn not_after(stamps: StampSource, ns: i128, prev: i128) -> String {
+    format!(
+        "{} stamp {:.6} s is not after the previous one ({:+.6} s){}",
+        match stamps {
+            StampSource::Header => "header",
+            StampSource::Receive => "receive",
+        },
+        ns as f64 * 1e-9,
+        (ns - prev) as f64 * 1e-9,
+        if ns == prev { ": a duplicate" } else { "" }
+    )
 }
 
 /// Opens the bag at `path` (a rosbag2 directory, `.mcap` or `.db3`) and reads its joint

@@ -75,14 +75,26 @@ pub enum Columns {
 
 impl PaperProtocol {
     /// Checks the settings' domains.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), PaperProtocolError> {
         match *self {
-            PaperProtocol::Resampled { points, .. } if points < 2 => Err(format!(
-                "paper_protocol.points = {points}: need at least 2 points"
-            )),
+            PaperProtocol::Resampled { points, .. } if points < 2 => {
+                Err(PaperProtocolError::TooFewPoints { points })
+            }
             _ => Ok(()),
         }
     }
+}
+
+/// Why `[eval] paper_protocol` settings are refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PaperProtocolError {
+    /// Fewer than 2 resampling points.
+    #[error("paper_protocol.points = {points}: need at least 2 points")]
+    TooFewPoints {
+        /// The setting.
+        points: usize,
+    },
 }
 
 /// A Table II cell in the paper's protocol.

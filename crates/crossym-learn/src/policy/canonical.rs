@@ -107,7 +107,7 @@ impl TaskFeatures {
         built: &[BuiltSymmetry],
         order: &[String],
     ) -> Result<Self, String> {
-        let map = CanonicalMap::from_symmetries(kin, built, order)?;
+        let map = CanonicalMap::from_symmetries(kin, built, order).map_err(|e| e.to_string())?;
         let chains = kin
             .chains()
             .iter()
@@ -375,7 +375,7 @@ impl TaskFeatures {
                     self.joints_read()
                 ));
             }
-            self.spec.map.supports(&s)?;
+            self.spec.map.supports(&s).map_err(|e| e.to_string())?;
             for i in 0..t.len() {
                 self.canonical(t.q(i), &s, &mut xt, &mut ws);
                 all.extend_from_slice(&xt);
@@ -412,7 +412,7 @@ mod tests {
     use super::*;
 
     fn action(h: &dyn Fn(&[f64], &mut [f64]) -> bool) -> Result<OneParamAction, String> {
-        OneParamAction::from_generator("g", 2, h)
+        OneParamAction::from_generator("g", 2, h).map_err(|e| e.to_string())
     }
 
     fn apply(a: &OneParamAction, t: f64, x: [f64; 2]) -> [f64; 2] {

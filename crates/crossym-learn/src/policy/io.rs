@@ -152,111 +152,14 @@ impl Policy {
         } else {
             (path.to_path_buf(), sidecar_path(path))
         };
-        let text = std::fs::read_to_string(&side).map_err(io_err(&side))?;
-        let value: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| PolicyError::Sidecar {
-                path: side.clone(),
-                message: e.to_string(),
-            })?;
-        // Version first, so that a future format gives a version error, not a field error.
-        match value.get("format").and_then(|f| f.as_str()) {
-            Some(FORMAT) => {}
-            other => {
-                return Err(PolicyError::Sidecar {
-                    path: side,
-                    message: format!("`format` is {other:?}, expected \"{FORMAT}\""),
-                })
-            }
-        }
-        let found = value
-            .get("format_version")
-            .and_then(|v| v.as_u64())
-            .ok_or_else(|| PolicyError::Sidecar {
-                path: side.clone(),
-                message: "missing or non-integer `format_version`".into(),
-            })?;
-        if found != u64::from(FORMAT_VERSION) {
-            return Err(PolicyError::Version {
-                path: side,
-                found: u32::try_from(found).unwrap_or(u32::MAX),
-                supported: FORMAT_VERSION,
-            });
-        }
-        let sc: Sidecar = serde_json::from_value(value).map_err(|e| PolicyError::Sidecar {
-            path: side.clone(),
-            message: e.to_string(),
-        })?;
+        let sc = read_sidecar(&side)?;
+        let task = check_sidecar(&sc, &side)?;
+        let (weights, biases) = read_weights(&weights_path, &sc.mlp)?;
         let invalid = |field: &str, message: String| PolicyError::Invalid {
             path: side.clone(),
             field: field.into(),
             message,
         };
-        sc.normalizer
-            .validate()
-            .map_err(|m| invalid("normalizer", m.to_string()))?;
-        sc.mlp
-            .validate()
-            .map_err(|m| invalid("mlp", m.to_string()))?;
-        let task = sc
-            .task_features
-            .clone()
-            .map(TaskFeatures::new)
-            .transpose()
-            .map_err(|m| invalid("task_features", m.to_string()))?;
-        let n = sc.normalizer.dim();
-        let input = sc.normalizer.input_dim() + task.as_ref().map_or(0, TaskFeatures::dim);
-        if sc.mlp.input != input || sc.mlp.output != n {
-            return Err(invalid(
-                "mlp",
-                format!(
-                    "layer sizes {:?} do not fit {n} joints (input must be {input}, output {n})",
-                    sc.mlp.layer_sizes(),
-                ),
-            ));
-        }
-
-        let bytes = std::fs::read(&weights_path).map_err(io_err(&weights_path))?;
-        let st = SafeTensors::deserialize(&bytes).map_err(|e| PolicyError::Weights {
-            path: weights_path.clone(),
-            message: e.to_string(),
-        })?;
-        let spec = &sc.mlp;
-        let mut weights = Vec::with_capacity(spec.num_layers());
-        let mut biases = Vec::with_capacity(spec.num_layers());
-        for l in 0..spec.num_layers() {
-            let (o, i) = spec.layer_shape(l);
-            weights.push(read_tensor(
-                &st,
-                &weights_path,
-                &MlpSpec::weight_name(l),
-                &[o, i],
-            )?);
-            biases.push(read_tensor(
-                &st,
-                &weights_path,
-                &MlpSpec::bias_name(l),
-                &[o],
-            )?);
-        }
-        let expected = 2 * spec.num_layers();
-        if st.len() != expected {
-            let mut extra: Vec<&str> = st
-                .names()
-                .into_iter()
-                .filter(|n| {
-                    !(0..spec.num_layers())
-                        .any(|l| *n == MlpSpec::weight_name(l) || *n == MlpSpec::bias_name(l))
-                })
-                .collect();
-            extra.sort_unstable();
-            return Err(PolicyError::Weights {
-                path: weights_path,
-                message: format!(
-                    "unexpected tensors {extra:?} for layer sizes {:?}",
-                    spec.layer_sizes()
-                ),
-            });
-        }
         let mlp = MlpInference::new(sc.mlp.clone(), weights, biases).map_err(|message| {
             PolicyError::Weights {
                 path: weights_path.clone(),
@@ -279,6 +182,131 @@ impl Policy {
             })?;
         Ok(policy)
     }
+}
+
+/// Reads the sidecar `side`: its format and version first (so that a future format gives
+/// a version error, not a field error), then its fields.
+fn read_sidecar(side: &Path) -> Result<Sidecar, PolicyError> {
+    let side = side.to_path_buf();
+    let text = std::fs::read_to_string(&side).map_err(io_err(&side))?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| PolicyError::Sidecar {
+            path: side.clone(),
+            message: e.to_string(),
+        })?;
+    // Version first, so that a future format gives a version error, not a field error.
+    match value.get("format").and_then(|f| f.as_str()) {
+        Some(FORMAT) => {}
+        other => {
+            return Err(PolicyError::Sidecar {
+                path: side,
+                message: format!("`format` is {other:?}, expected \"{FORMAT}\""),
+            })
+        }
+    }
+    let found = value
+        .get("format_version")
+        .and_then(|v| v.as_u64())
+        .ok_or_else(|| PolicyError::Sidecar {
+            path: side.clone(),
+            message: "missing or non-integer `format_version`".into(),
+        })?;
+    if found != u64::from(FORMAT_VERSION) {
+        return Err(PolicyError::Version {
+            path: side,
+            found: u32::try_from(found).unwrap_or(u32::MAX),
+            supported: FORMAT_VERSION,
+        });
+    }
+    let sc: Sidecar = serde_json::from_value(value).map_err(|e| PolicyError::Sidecar {
+        path: side.clone(),
+        message: e.to_string(),
+    })?;
+    Ok(sc)
+}
+
+/// Checks the sidecar's normaliser, architecture and task features against each other;
+/// returns the task features.
+fn check_sidecar(sc: &Sidecar, side: &Path) -> Result<Option<TaskFeatures>, PolicyError> {
+    let invalid = |field: &str, message: String| PolicyError::Invalid {
+        path: side.to_path_buf(),
+        field: field.into(),
+        message,
+    };
+    sc.normalizer
+        .validate()
+        .map_err(|m| invalid("normalizer", m.to_string()))?;
+    sc.mlp
+        .validate()
+        .map_err(|m| invalid("mlp", m.to_string()))?;
+    let task = sc
+        .task_features
+        .clone()
+        .map(TaskFeatures::new)
+        .transpose()
+        .map_err(|m| invalid("task_features", m.to_string()))?;
+    let n = sc.normalizer.dim();
+    let input = sc.normalizer.input_dim() + task.as_ref().map_or(0, TaskFeatures::dim);
+    if sc.mlp.input != input || sc.mlp.output != n {
+        return Err(invalid(
+            "mlp",
+            format!(
+                "layer sizes {:?} do not fit {n} joints (input must be {input}, output {n})",
+                sc.mlp.layer_sizes(),
+            ),
+        ));
+    }
+    Ok(task)
+}
+
+/// Per layer, the row-major weights and the bias.
+type LayerParams = (Vec<Vec<f64>>, Vec<Vec<f64>>);
+
+/// Reads the weights and biases of every layer of `spec` from the safetensors file
+/// `weights_path`, refusing tensors it does not name.
+fn read_weights(weights_path: &Path, spec: &MlpSpec) -> Result<LayerParams, PolicyError> {
+    let bytes = std::fs::read(weights_path).map_err(io_err(weights_path))?;
+    let st = SafeTensors::deserialize(&bytes).map_err(|e| PolicyError::Weights {
+        path: weights_path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut weights = Vec::with_capacity(spec.num_layers());
+    let mut biases = Vec::with_capacity(spec.num_layers());
+    for l in 0..spec.num_layers() {
+        let (o, i) = spec.layer_shape(l);
+        weights.push(read_tensor(
+            &st,
+            weights_path,
+            &MlpSpec::weight_name(l),
+            &[o, i],
+        )?);
+        biases.push(read_tensor(
+            &st,
+            weights_path,
+            &MlpSpec::bias_name(l),
+            &[o],
+        )?);
+    }
+    let expected = 2 * spec.num_layers();
+    if st.len() != expected {
+        let mut extra: Vec<&str> = st
+            .names()
+            .into_iter()
+            .filter(|n| {
+                !(0..spec.num_layers())
+                    .any(|l| *n == MlpSpec::weight_name(l) || *n == MlpSpec::bias_name(l))
+            })
+            .collect();
+        extra.sort_unstable();
+        return Err(PolicyError::Weights {
+            path: weights_path.to_path_buf(),
+            message: format!(
+                "unexpected tensors {extra:?} for layer sizes {:?}",
+                spec.layer_sizes()
+            ),
+        });
+    }
+    Ok((weights, biases))
 }
 
 /// Reads one F32 or F64 tensor of the given shape as `f64`, rejecting non-finite values.

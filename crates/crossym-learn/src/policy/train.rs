@@ -556,21 +556,7 @@ pub fn train_with_features(
     if config.ensemble > 1 {
         return train_ensemble(data, config, meta, features, progress);
     }
-    if config.task_features != features.is_some() {
-        return Err(PolicyError::Data {
-            message: format!(
-                "[train] task_features = {} but task features were{} given",
-                config.task_features,
-                if features.is_some() { "" } else { " not" }
-            ),
-        });
-    }
-    if let Some(f) = features.as_mut() {
-        f.fit(data.iter().map(|(t, s)| (*t, *s)))
-            .map_err(|message| PolicyError::Data {
-                message: message.to_string(),
-            })?;
-    }
+    fit_features(data, config, features.as_mut())?;
     let h = config.horizon;
     let stride = config.stride;
     // A window spans `h · stride` samples; padded windows only need two samples.
@@ -580,38 +566,11 @@ pub fn train_with_features(
     let n = normalizer.dim();
     let m = features.as_ref().map_or(0, TaskFeatures::dim);
     let (prepared, skipped_short) = prepare(data, &normalizer, features.as_ref(), min_len, stride);
-    let graph = match &features {
-        Some(f) => {
-            let row = |v: &[f64]| {
-                Tensor::from_vec(
-                    v.iter().map(|&x| x as f32).collect::<Vec<_>>(),
-                    (1, n),
-                    &Device::Cpu,
-                )
-            };
-            Some(FeatureGraph {
-                fk: CandleFk::new(
-                    f.spec()
-                        .chains
-                        .iter()
-                        .map(|c| (c.q_offset, c.factors.clone()))
-                        .collect(),
-                ),
-                q_mean: row(&normalizer.q_mean)?,
-                q_std: row(&normalizer.q_std)?,
-            })
-        }
-        None => None,
-    };
-    let mut cum = vec![0usize];
-    for p in &prepared {
-        let starts = if config.pad_end {
-            p.len - 1
-        } else {
-            p.len - span
-        };
-        cum.push(cum.last().copied().unwrap_or(0) + starts);
-    }
+    let graph = features
+        .as_ref()
+        .map(|f| feature_graph(f, &normalizer))
+        .transpose()?;
+    let cum = window_counts(&prepared, config.pad_end, span);
     let windows = *cum.last().unwrap_or(&0);
     if windows == 0 {
         return Err(PolicyError::Data {
@@ -666,38 +625,20 @@ pub fn train_with_features(
         },
     )?;
     let start = Instant::now();
-    for k in 0..config.iterations {
-        opt.set_learning_rate(
-            config
-                .lr_schedule
-                .at(config.learning_rate, k, config.iterations),
-        );
-        let hk = config.horizon_at(k);
-        let w = Windows {
-            h: hk,
-            noise: config.start_noise as f32,
-            ..full
-        };
-        let batch = make_batch(
-            &prepared,
-            &mut sampler,
-            &mut noise_rng,
-            config.batch_size,
-            w,
-        )?;
-        let loss = batch_loss(&mlp, &batch, graph.as_ref(), hk, w_v)?;
-        let l = scalar(&loss)?;
-        if !l.is_finite() {
-            return Err(PolicyError::Diverged {
-                iteration: k,
-                loss: l,
-            });
-        }
-        opt.backward_step(&loss)?;
-        if (k + 1) % config.log_every == 0 || k + 1 == config.iterations {
-            progress(k + 1, l);
-        }
-    }
+    let batches = Batches {
+        prepared: &prepared,
+        sampler: &mut sampler,
+        noise_rng: &mut noise_rng,
+        full,
+    };
+    optimise(
+        &mlp,
+        &mut opt,
+        config,
+        batches,
+        graph.as_ref(),
+        &mut progress,
+    )?;
     let seconds = start.elapsed().as_secs_f64();
     let final_loss = scalar(&batch_loss(&mlp, &eval, graph.as_ref(), h, w_v)?)?;
     if !final_loss.is_finite() {
@@ -719,4 +660,119 @@ pub fn train_with_features(
             skipped_short,
         },
     ))
+}
+
+/// Checks that task features are given exactly when `config` asks for them and fits their
+/// normalisation on `data`.
+fn fit_features(
+    data: &[(&JointTrajectory, Condition)],
+    config: &TrainConfig,
+    features: Option<&mut TaskFeatures>,
+) -> Result<(), PolicyError> {
+    if config.task_features != features.is_some() {
+        return Err(PolicyError::Data {
+            message: format!(
+                "[train] task_features = {} but task features were{} given",
+                config.task_features,
+                if features.is_some() { "" } else { " not" }
+            ),
+        });
+    }
+    if let Some(f) = features {
+        f.fit(data.iter().map(|(t, s)| (*t, *s)))
+            .map_err(|message| PolicyError::Data {
+                message: message.to_string(),
+            })?;
+    }
+    Ok(())
+}
+
+/// The candle FK of the task features `f` and the joint normalisation it undoes.
+fn feature_graph(f: &TaskFeatures, normalizer: &Normalizer) -> Result<FeatureGraph, PolicyError> {
+    let n = normalizer.dim();
+    let row = |v: &[f64]| {
+        Tensor::from_vec(
+            v.iter().map(|&x| x as f32).collect::<Vec<_>>(),
+            (1, n),
+            &Device::Cpu,
+        )
+    };
+    Ok(FeatureGraph {
+        fk: CandleFk::new(
+            f.spec()
+                .chains
+                .iter()
+                .map(|c| (c.q_offset, c.factors.clone()))
+                .collect(),
+        ),
+        q_mean: row(&normalizer.q_mean)?,
+        q_std: row(&normalizer.q_std)?,
+    })
+}
+
+/// Cumulative window counts of `prepared` (`cum[i]` = windows in trajectories `< i`): a
+/// window spans `span` samples, or starts anywhere but the last sample when `pad_end`.
+fn window_counts(prepared: &[Prepared], pad_end: bool, span: usize) -> Vec<usize> {
+    let mut cum = vec![0usize];
+    for p in prepared {
+        let starts = if pad_end { p.len - 1 } else { p.len - span };
+        cum.push(cum.last().copied().unwrap_or(0) + starts);
+    }
+    cum
+}
+
+/// Where training batches come from: the prepared trajectories, the window sampler, the
+/// start-noise generator and the full-horizon window shape.
+struct Batches<'a> {
+    prepared: &'a [Prepared],
+    sampler: &'a mut Sampler,
+    noise_rng: &'a mut StdRng,
+    full: Windows,
+}
+
+/// The training iterations: per iteration the scheduled learning rate and horizon, a
+/// batch, the loss (an error when not finite) and one AdamW step; `progress` every
+/// `log_every` iterations and at the end.
+fn optimise(
+    mlp: &CandleMlp,
+    opt: &mut AdamW,
+    config: &TrainConfig,
+    batches: Batches<'_>,
+    graph: Option<&FeatureGraph>,
+    progress: &mut impl FnMut(usize, f64),
+) -> Result<(), PolicyError> {
+    let w_v = config.velocity_weight;
+    for k in 0..config.iterations {
+        opt.set_learning_rate(
+            config
+                .lr_schedule
+                .at(config.learning_rate, k, config.iterations),
+        );
+        let hk = config.horizon_at(k);
+        let w = Windows {
+            h: hk,
+            noise: config.start_noise as f32,
+            ..batches.full
+        };
+        let batch = make_batch(
+            batches.prepared,
+            batches.sampler,
+            batches.noise_rng,
+            config.batch_size,
+            w,
+        )?;
+        let loss = batch_loss(mlp, &batch, graph, hk, w_v)?;
+        let l = scalar(&loss)?;
+        if !l.is_finite() {
+            return Err(PolicyError::Diverged {
+                iteration: k,
+                loss: l,
+            });
+        }
+        opt.backward_step(&loss)?;
+        if (k + 1) % config.log_every == 0 || k + 1 == config.iterations {
+            progress(k + 1, l);
+        }
+    }
+    Ok(())
 }

@@ -156,25 +156,35 @@ impl RigidFactor {
 
     /// The transform, after checking the numbers are finite and the rotation orthonormal with
     /// determinant +1 (to 1e-9); `what` names the factor in the error.
-    fn to_isometry(self, what: &str) -> Result<IsometryMatrix3<f64>, String> {
-        if let Some(v) = self.rotation.iter().find(|v| !v.is_finite()) {
-            return Err(format!("{what}: rotation entry {v} is not finite"));
+    fn to_isometry(self, what: &str) -> Result<IsometryMatrix3<f64>, FactorsError> {
+        if let Some(&value) = self.rotation.iter().find(|v| !v.is_finite()) {
+            return Err(FactorsError::NonFinite {
+                factor: what.into(),
+                part: "rotation",
+                value,
+            });
         }
-        if let Some(v) = self.translation.iter().find(|v| !v.is_finite()) {
-            return Err(format!("{what}: translation entry {v} is not finite"));
+        if let Some(&value) = self.translation.iter().find(|v| !v.is_finite()) {
+            return Err(FactorsError::NonFinite {
+                factor: what.into(),
+                part: "translation",
+                value,
+            });
         }
         let m = nalgebra::Matrix3::from_row_slice(&self.rotation);
         let err = (m.transpose() * m - nalgebra::Matrix3::identity()).amax();
         if err > ORTHONORMAL_TOL {
-            return Err(format!(
-                "{what}: rotation is not orthonormal (max |RᵀR − I| = {err:e} > {ORTHONORMAL_TOL:e})"
-            ));
+            return Err(FactorsError::NotOrthonormal {
+                factor: what.into(),
+                deviation: err,
+            });
         }
         let det = m.determinant();
         if (det - 1.0).abs() > ORTHONORMAL_TOL {
-            return Err(format!(
-                "{what}: rotation has determinant {det} (must be +1, not a reflection)"
-            ));
+            return Err(FactorsError::Determinant {
+                factor: what.into(),
+                determinant: det,
+            });
         }
         Ok(IsometryMatrix3::from_parts(
             Vector3::from(self.translation).into(),
@@ -185,6 +195,45 @@ impl RigidFactor {
 
 /// Tolerance of the orthonormality and determinant checks of [`Chain::from_factors`].
 const ORTHONORMAL_TOL: f64 = 1e-9;
+
+/// Why factors do not describe a chain ([`Chain::from_factors`]); `factor` names the
+/// offending one (`chain `c`: joint 2 pre`, `chain `c`: tail`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FactorsError {
+    /// The chain has no joint.
+    #[error("chain `{chain}`: no joints")]
+    NoJoints {
+        /// Chain name.
+        chain: String,
+    },
+    /// A rotation or translation entry is not finite.
+    #[error("{factor}: {part} entry {value} is not finite")]
+    NonFinite {
+        /// Which factor.
+        factor: String,
+        /// `rotation` or `translation`.
+        part: &'static str,
+        /// The entry.
+        value: f64,
+    },
+    /// The rotation is not orthonormal to 1e-9.
+    #[error("{factor}: rotation is not orthonormal (max |RᵀR − I| = {deviation:e} > {tol:e})", tol = ORTHONORMAL_TOL)]
+    NotOrthonormal {
+        /// Which factor.
+        factor: String,
+        /// `max |RᵀR − I|`.
+        deviation: f64,
+    },
+    /// The rotation's determinant is not +1 (a reflection).
+    #[error("{factor}: rotation has determinant {determinant} (must be +1, not a reflection)")]
+    Determinant {
+        /// Which factor.
+        factor: String,
+        /// `det R`.
+        determinant: f64,
+    },
+}
 
 /// One movable joint in a frame whose z axis is the joint axis (see [`Chain::new`]).
 #[derive(Debug, Clone)]
@@ -352,10 +401,13 @@ impl Chain {
 
     /// A chain rebuilt from factors: same FK (bit for bit) as the chain they came from;
     /// joint names `"{name}_joint{i}"`, limits unbounded, base/tip strings `""`. Validates
-    /// that rotations are orthonormal to 1e-9 with det +1 and values finite; error says what is wrong (String).
-    pub fn from_factors(f: &ChainFactors) -> Result<Chain, String> {
+    /// that rotations are orthonormal to 1e-9 with det +1 and values finite; the error says
+    /// what is wrong.
+    pub fn from_factors(f: &ChainFactors) -> Result<Chain, FactorsError> {
         if f.joints.is_empty() {
-            return Err(format!("chain `{}`: no joints", f.name));
+            return Err(FactorsError::NoJoints {
+                chain: f.name.clone(),
+            });
         }
         let mut segments = Vec::with_capacity(f.joints.len());
         for (i, j) in f.joints.iter().enumerate() {
@@ -704,7 +756,7 @@ mod tests {
 
         let mut f = good.clone();
         f.joints[1].pre.rotation[0] = 1.001; // first column no longer unit
-        let e = Chain::from_factors(&f).unwrap_err();
+        let e = Chain::from_factors(&f).unwrap_err().to_string();
         assert!(
             e.contains("joint 1 pre") && e.contains("orthonormal"),
             "{e}"
@@ -712,22 +764,22 @@ mod tests {
 
         let mut f = good.clone();
         f.tail.rotation = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -1.0]; // a reflection
-        let e = Chain::from_factors(&f).unwrap_err();
+        let e = Chain::from_factors(&f).unwrap_err().to_string();
         assert!(e.contains("tail") && e.contains("determinant"), "{e}");
 
         let mut f = good.clone();
         f.joints[0].pre.translation[2] = f64::NAN;
-        let e = Chain::from_factors(&f).unwrap_err();
+        let e = Chain::from_factors(&f).unwrap_err().to_string();
         assert!(e.contains("joint 0 pre") && e.contains("not finite"), "{e}");
 
         let mut f = good.clone();
         f.tail.rotation[4] = f64::INFINITY;
-        let e = Chain::from_factors(&f).unwrap_err();
+        let e = Chain::from_factors(&f).unwrap_err().to_string();
         assert!(e.contains("tail") && e.contains("not finite"), "{e}");
 
         let mut f = good.clone();
         f.joints.clear();
-        let e = Chain::from_factors(&f).unwrap_err();
+        let e = Chain::from_factors(&f).unwrap_err().to_string();
         assert!(e.contains("no joints"), "{e}");
 
         // A slightly perturbed but still orthonormal (to 1e-9) rotation is accepted.

@@ -20,7 +20,8 @@ pub mod robot;
 pub mod tree;
 
 pub use chain::{
-    Chain, ChainFactors, ChainSpec, ChainWorkspace, JointFactor, RigidFactor, TaskSpace, ToolOffset,
+    Chain, ChainFactors, ChainSpec, ChainWorkspace, FactorsError, JointFactor, RigidFactor,
+    TaskSpace, ToolOffset,
 };
 pub use error::KinematicsError;
 pub use model::{JointKind, JointLimits, JointModel, Mimic, RobotModel};

@@ -17,7 +17,9 @@ use crate::kinematics::Kinematics;
 use crate::symmetry::check::BuiltSymmetry;
 use crate::symmetry::compose::Condition;
 use crate::symmetry::field::VectorField;
+use crate::symmetry::finite::{PermutationError, SignedPermutation};
 use crate::symmetry::lie::TaskGroupAction;
+use crate::symmetry::parts::PartsError;
 
 /// Tolerance on the generator identities (`H³ = −H`, `H² = H`, `H² = 0`) and on affinity.
 const GENERATOR_TOL: f64 = 1e-9;
@@ -32,6 +34,47 @@ pub enum OneParamKind {
     Scaling,
     /// `H² = 0`: translations, `t` a length (m).
     Translation,
+}
+
+/// Why a generator has no closed form here ([`OneParamAction::from_generator`],
+/// [`OneParamAction::classify`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GeneratorError {
+    /// The generator is undefined at a probe point.
+    #[error("`{name}`: generator undefined at {point}")]
+    Undefined {
+        /// Symmetry name.
+        name: String,
+        /// The point (`0`, `e_j` or the coordinates).
+        point: String,
+    },
+    /// The generator is not affine.
+    #[error(
+        "`{name}` is not an affine action on X (residual {residual:.1e}): canonical \
+         task features need rotations, scalings or translations"
+    )]
+    NotAffine {
+        /// Symmetry name.
+        name: String,
+        /// Largest deviation from `A x + b` at the probes.
+        residual: f64,
+    },
+    /// The generator is zero.
+    #[error("`{name}`: the generator is zero")]
+    Zero {
+        /// Symmetry name.
+        name: String,
+    },
+    /// `H` satisfies none of the three identities.
+    #[error(
+        "`{name}`: the generator satisfies none of H³ = −H, H² = H, H² = 0, so its \
+         group has no closed form here"
+    )]
+    NoClosedForm {
+        /// Symmetry name.
+        name: String,
+    },
 }
 
 /// `Φ(t, x) = exp(t H) x` with `H x = A x + b` on `X = ℝᵐ`.
@@ -56,10 +99,14 @@ impl OneParamAction {
         name: &str,
         m: usize,
         h: &dyn Fn(&[f64], &mut [f64]) -> bool,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, GeneratorError> {
+        let undefined = |point: String| GeneratorError::Undefined {
+            name: name.into(),
+            point,
+        };
         let mut offset = vec![0.0; m];
         if !h(&vec![0.0; m], &mut offset) {
-            return Err(format!("`{name}`: generator undefined at 0"));
+            return Err(undefined("0".into()));
         }
         let mut linear = vec![0.0; m * m];
         let mut col = vec![0.0; m];
@@ -67,7 +114,7 @@ impl OneParamAction {
             let mut e = vec![0.0; m];
             e[j] = 1.0;
             if !h(&e, &mut col) {
-                return Err(format!("`{name}`: generator undefined at e_{j}"));
+                return Err(undefined(format!("e_{j}")));
             }
             for i in 0..m {
                 linear[i * m + j] = col[i] - offset[i];
@@ -83,16 +130,16 @@ impl OneParamAction {
             let p: Vec<f64> = (0..m).map(|i| probe * (i as f64 + 1.3)).collect();
             let mut want = vec![0.0; m];
             if !h(&p, &mut want) {
-                return Err(format!("`{name}`: generator undefined at {p:?}"));
+                return Err(undefined(format!("{p:?}")));
             }
             let mut got = vec![0.0; m];
             out.generator(&p, &mut got);
             let err = max_diff(&got, &want);
             if err > GENERATOR_TOL * (1.0 + max_abs(&want)) {
-                return Err(format!(
-                    "`{name}` is not an affine action on X (residual {err:.1e}): canonical \
-                     task features need rotations, scalings or translations"
-                ));
+                return Err(GeneratorError::NotAffine {
+                    name: name.into(),
+                    residual: err,
+                });
             }
         }
         let kind = out.classify()?;
@@ -101,7 +148,7 @@ impl OneParamAction {
 
     /// Which closed form the generator admits, from the powers of `H = [[A, b], [0, 0]]`
     /// (tolerance 1e-9 relative); an error for a zero generator or none of the three.
-    pub fn classify(&self) -> Result<OneParamKind, String> {
+    pub fn classify(&self) -> Result<OneParamKind, GeneratorError> {
         let (m, name) = (self.offset.len(), &self.name);
         let k = m + 1;
         let mut hm = vec![0.0; k * k];
@@ -116,7 +163,7 @@ impl OneParamAction {
         let neg_h: Vec<f64> = hm.iter().map(|v| -v).collect();
         let zero = vec![0.0; k * k];
         if max_abs(&hm) == 0.0 {
-            Err(format!("`{name}`: the generator is zero"))
+            Err(GeneratorError::Zero { name: name.clone() })
         } else if close(&h2, &zero) {
             Ok(OneParamKind::Translation)
         } else if close(&h2, &hm) {
@@ -124,10 +171,7 @@ impl OneParamAction {
         } else if close(&h3, &neg_h) {
             Ok(OneParamKind::Rotation)
         } else {
-            Err(format!(
-                "`{name}`: the generator satisfies none of H³ = −H, H² = H, H² = 0, so its \
-                 group has no closed form here"
-            ))
+            Err(GeneratorError::NoClosedForm { name: name.clone() })
         }
     }
 
@@ -284,6 +328,106 @@ impl VectorField for OneParamAction {
     }
 }
 
+/// Why a [`CanonicalMap`] cannot be built or is inconsistent
+/// ([`CanonicalMap::from_symmetries`], [`CanonicalMap::validate`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CanonicalMapError {
+    /// The composition order's parts cannot be picked.
+    #[error(transparent)]
+    Parts {
+        /// Why.
+        #[from]
+        source: PartsError,
+    },
+    /// `M` does not descend to a signed permutation of `X`.
+    #[error(
+        "`{name}` does not descend to a signed permutation of X, which canonical \
+         task features need"
+    )]
+    NotDescended {
+        /// Name of `M`.
+        name: String,
+    },
+    /// `R` or `S` is not a one-parameter group on `X`.
+    #[error("`{name}` must be a one-parameter group on X = R^{m}")]
+    NotOneParameter {
+        /// Symmetry name.
+        name: String,
+        /// Task-space dimension.
+        m: usize,
+    },
+    /// A generator has no closed form.
+    #[error(transparent)]
+    Generator {
+        /// Why.
+        #[from]
+        source: GeneratorError,
+    },
+    /// The task dimension is 0.
+    #[error("task dimension is 0")]
+    ZeroDim,
+    /// The stored reflection is not a signed permutation.
+    #[error("reflection: {source}")]
+    Reflection {
+        /// Why.
+        source: PermutationError,
+    },
+    /// The stored reflection acts on another space.
+    #[error("reflection acts on R^{acts_on}, not R^{m}")]
+    ReflectionDim {
+        /// Dimension it acts on.
+        acts_on: usize,
+        /// Task-space dimension.
+        m: usize,
+    },
+    /// A stored generator is not `m × m + m`.
+    #[error("`{name}`: generator is not {m}×{m} + {m}")]
+    GeneratorShape {
+        /// Symmetry name.
+        name: String,
+        /// Task-space dimension.
+        m: usize,
+    },
+    /// A stored generator has a non-finite entry.
+    #[error("`{name}`: generator is not finite")]
+    NonFinite {
+        /// Symmetry name.
+        name: String,
+    },
+    /// A stored generator is not of its stored kind.
+    #[error("`{name}`: stored as {stored:?} but its generator is a {actual:?}")]
+    KindMismatch {
+        /// Symmetry name.
+        name: String,
+        /// The kind stored.
+        stored: OneParamKind,
+        /// The kind of the generator.
+        actual: OneParamKind,
+    },
+}
+
+/// A condition the canonical map cannot undo ([`CanonicalMap::supports`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum UnsupportedCondition {
+    /// `σ = −1` without a reflection.
+    #[error("the policy's group has no reflection (σ = −1)")]
+    Reflection,
+    /// `λ ≠ 1` without a scaling.
+    #[error("the policy's group has no scaling (λ = {scale})")]
+    Scaling {
+        /// The scale asked for.
+        scale: f64,
+    },
+    /// `θ ≠ 0` without a rotation.
+    #[error("the policy's group has no rotation (θ = {theta})")]
+    Rotation {
+        /// The angle asked for (rad).
+        theta: f64,
+    },
+}
+
 /// The inverse action `x ↦ g(s)⁻¹ x` of the letter group `(SO(2) × S) ⋊ C2` (or a
 /// sub-group) on `X`, in the composition order `ρ_X(σ) ∘ Φ_R(θ) ∘ Φ_S(ln λ)` (eq. 23).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -306,7 +450,7 @@ impl CanonicalMap {
         kin: &Kinematics,
         built: &[BuiltSymmetry],
         order: &[String],
-    ) -> Result<Self, String> {
+    ) -> Result<Self, CanonicalMapError> {
         let m = kin.task_dim();
         let super::parts::CompositionParts {
             rotation: rot,
@@ -321,22 +465,19 @@ impl CanonicalMap {
                 perm: rho.perm.clone(),
                 signs: rho.signs.clone(),
             },
-            _ => {
-                return Err(format!(
-                    "`{mn}` does not descend to a signed permutation of X, which canonical \
-                     task features need"
-                ))
-            }
+            _ => return Err(CanonicalMapError::NotDescended { name: mn.clone() }),
         };
-        let one = |a: &dyn TaskGroupAction| -> Result<OneParamAction, String> {
+        let one = |a: &dyn TaskGroupAction| -> Result<OneParamAction, CanonicalMapError> {
             if a.dim() != m || a.algebra_dim() != 1 {
-                return Err(format!(
-                    "`{}` must be a one-parameter group on X = R^{m}",
-                    a.name()
-                ));
+                return Err(CanonicalMapError::NotOneParameter {
+                    name: a.name().into(),
+                    m,
+                });
             }
             let field = a.generator_field(&[1.0]);
-            OneParamAction::from_generator(a.name(), m, &|x, out| field.eval(x, out))
+            Ok(OneParamAction::from_generator(a.name(), m, &|x, out| {
+                field.eval(x, out)
+            })?)
         };
         Ok(Self {
             dim: m,
@@ -348,31 +489,40 @@ impl CanonicalMap {
 
     /// Checks dimensions, the permutation, the generators' shapes and that each generator
     /// is of its stored kind; says what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), CanonicalMapError> {
         let m = self.dim;
         if m == 0 {
-            return Err("task dimension is 0".into());
+            return Err(CanonicalMapError::ZeroDim);
         }
         if let Some(r) = &self.reflection {
-            crate::symmetry::finite::SignedPermutation::new(r.perm.clone(), r.signs.clone())
-                .map_err(|e| format!("reflection: {e}"))?;
+            SignedPermutation::new(r.perm.clone(), r.signs.clone())
+                .map_err(|source| CanonicalMapError::Reflection { source })?;
             if r.perm.len() != m {
-                return Err(format!("reflection acts on R^{}, not R^{m}", r.perm.len()));
+                return Err(CanonicalMapError::ReflectionDim {
+                    acts_on: r.perm.len(),
+                    m,
+                });
             }
         }
         for a in [&self.rotation, &self.scaling].into_iter().flatten() {
             if a.linear.len() != m * m || a.offset.len() != m {
-                return Err(format!("`{}`: generator is not {m}×{m} + {m}", a.name));
+                return Err(CanonicalMapError::GeneratorShape {
+                    name: a.name.clone(),
+                    m,
+                });
             }
             if a.linear.iter().chain(&a.offset).any(|v| !v.is_finite()) {
-                return Err(format!("`{}`: generator is not finite", a.name));
+                return Err(CanonicalMapError::NonFinite {
+                    name: a.name.clone(),
+                });
             }
             let kind = a.classify()?;
             if kind != a.kind {
-                return Err(format!(
-                    "`{}`: stored as {:?} but its generator is a {kind:?}",
-                    a.name, a.kind
-                ));
+                return Err(CanonicalMapError::KindMismatch {
+                    name: a.name.clone(),
+                    stored: a.kind,
+                    actual: kind,
+                });
             }
         }
         Ok(())
@@ -380,21 +530,15 @@ impl CanonicalMap {
 
     /// Checks that the map can undo `s`: a reflection needs `ρ_X`, a scaling other than 1
     /// needs `Φ_S`, a rotation other than 0 needs `Φ_R`.
-    pub fn supports(&self, s: &Condition) -> Result<(), String> {
+    pub fn supports(&self, s: &Condition) -> Result<(), UnsupportedCondition> {
         if s.reflection == -1 && self.reflection.is_none() {
-            return Err("the policy's group has no reflection (σ = −1)".into());
+            return Err(UnsupportedCondition::Reflection);
         }
         if s.scale != 1.0 && self.scaling.is_none() {
-            return Err(format!(
-                "the policy's group has no scaling (λ = {})",
-                s.scale
-            ));
+            return Err(UnsupportedCondition::Scaling { scale: s.scale });
         }
         if s.theta != 0.0 && self.rotation.is_none() {
-            return Err(format!(
-                "the policy's group has no rotation (θ = {})",
-                s.theta
-            ));
+            return Err(UnsupportedCondition::Rotation { theta: s.theta });
         }
         Ok(())
     }

@@ -350,19 +350,18 @@ pub fn build(
 ) -> Result<(Vec<BuiltSymmetry>, Vec<SymmetryRow>), CheckError> {
     let mut built = Vec::new();
     let mut rows = Vec::new();
-    let chains = kin.chains();
     for s in symmetries {
         if symmetries.iter().filter(|o| o.name == s.name).count() > 1 {
             return Err(sym_err(&s.name, "name used twice"));
         }
-        match &s.group {
+        let (b, row) = match &s.group {
             GroupSpec::Morphological {
                 chains: pair,
                 plane_normal,
                 signs,
                 whole_body,
             } => {
-                let (rho_q, mut notes) = if *whole_body {
+                let (rho_q, notes) = if *whole_body {
                     if pair.is_some() || signs.is_some() {
                         return Err(sym_err(
                             &s.name,
@@ -372,163 +371,209 @@ pub fn build(
                     whole_body_reflection(kin, plane_normal.unwrap_or([0.0, 1.0, 0.0]))
                         .map_err(|e| sym_err(&s.name, e))?
                 } else {
-                    let idx = |name: &str| {
-                        chains
-                            .iter()
-                            .position(|c| c.name == name)
-                            .ok_or_else(|| sym_err(&s.name, format!("no chain `{name}`")))
-                    };
-                    let (a, b) = match pair {
-                        Some([x, y]) => (idx(x)?, idx(y)?),
-                        None if chains.len() >= 2 => (0, 1),
-                        None => return Err(sym_err(&s.name, "needs two chains")),
-                    };
-                    if chains.len() != 2 || (a, b) != (0, 1) {
-                        return Err(sym_err(
-                            &s.name,
-                            "only the swap of a two-chain robot (chains in order) is supported",
-                        ));
-                    }
-                    if chains[0].dof() != chains[1].dof() {
-                        return Err(sym_err(
-                            &s.name,
-                            "the two chains have different numbers of joints",
-                        ));
-                    }
-                    let mut notes = Vec::new();
-                    let rho_q = if let Some(p) = signs {
-                        if p.len() != chains[0].dof() || p.iter().any(|v| *v != 1.0 && *v != -1.0) {
-                            return Err(sym_err(
-                                &s.name,
-                                format!("signs must be {} values of ±1", chains[0].dof()),
-                            ));
-                        }
-                        notes.push(format!(
-                            "P = diag{:?} (given)",
-                            p.iter().map(|v| *v as i32).collect::<Vec<_>>()
-                        ));
-                        SignedPermutation::block_swap(p)
-                    } else {
-                        let n = Vector3::from(plane_normal.unwrap_or([0.0, 1.0, 0.0]));
-                        let rep = derive_morphological(kin, a, b, n, &MorphoSettings::default())
-                            .map_err(|e| sym_err(&s.name, e.to_string()))?;
-                        notes.push(format!(
-                            "P = diag{:?} derived from the URDF ({:?}, residual {:.1e} m, {:.1e} of the chains' size)",
-                            rep.p_signs.iter().map(|v| *v as i32).collect::<Vec<_>>(),
-                            rep.status,
-                            rep.max_residual,
-                            rep.relative_residual
-                        ));
-                        if !rep.limit_mismatches.is_empty() {
-                            notes.push(format!(
-                                "{} joint-limit pairs do not map consistently under P",
-                                rep.limit_mismatches.len()
-                            ));
-                        }
-                        rep.rho_q.clone()
-                    };
-                    (rho_q, notes)
+                    chain_swap(kin, &s.name, pair.as_ref(), *plane_normal, signs.as_deref())?
                 };
-                let d = descend(&s.name, kin, &rho_q, &DescendSettings::default())
-                    .map_err(|e| sym_err(&s.name, e.to_string()))?;
-                let rho_x = d
-                    .task_action
-                    .as_ref()
-                    .and_then(|t| t.as_signed_permutation().cloned());
-                if let Some(px) = &rho_x {
-                    let k = px.dim() / 2;
-                    notes.push(format!(
-                        "P_X = diag{:?}",
-                        px.signs[..k].iter().map(|v| *v as i32).collect::<Vec<_>>()
-                    ));
-                }
-                rows.push(SymmetryRow {
-                    name: s.name.clone(),
-                    group: "C2".into(),
-                    acts_on: "Q",
-                    transfer: if d.descends() {
-                        "descended to X".into()
-                    } else {
-                        "does not descend".into()
-                    },
-                    equivariance: d.relative_residual,
-                    periodicity_drift: None,
-                    bracket_vertical: None,
-                    singular_samples: 0,
-                    notes,
-                    ok: d.descends(),
-                });
-                built.push(BuiltSymmetry::Finite {
-                    name: s.name.clone(),
-                    rho_q,
-                    rho_x,
-                });
+                build_finite(kin, &s.name, rho_q, notes)?
             }
-            other => {
-                let dims: Vec<usize> = chains.iter().map(|c| c.task.dim()).collect();
-                if dims.iter().any(|&d| d != dims[0]) {
-                    return Err(sym_err(
-                        &s.name,
-                        "chains have task spaces of different dimensions",
-                    ));
-                }
-                let mut notes = Vec::new();
-                let mut ok = true;
-                let (action, affine): (Box<dyn TaskGroupAction>, Option<LieGroupSpec>) = match other
-                {
-                    GroupSpec::TaskInduced { cost } => {
-                        if s.center.is_some() {
-                            return Err(sym_err(
-                                &s.name,
-                                "`center` does not apply to task-induced symmetries",
-                            ));
-                        }
-                        let t = TaskInducedSymmetry::from_spec(
-                            &s.name,
-                            cost,
-                            dims[0],
-                            chains.len(),
-                            &TaskInducedSettings::default(),
-                        )
-                        .map_err(|e| sym_err(&s.name, e.to_string()))?;
-                        notes.push(format!("task-induced: {}", t.report().verdict()));
-                        ok = t.report().is_ok() || t.report().is_group();
-                        (Box::new(t), None)
-                    }
-                    _ => {
-                        let spec = other.lie().expect("continuous kinds have a Lie spec");
-                        let a = AffineAction::new(
-                            &s.name,
-                            spec.clone(),
-                            dims[0],
-                            chains.len(),
-                            s.center.as_deref(),
-                        )
-                        .map_err(|e| sym_err(&s.name, e))?;
-                        (Box::new(a), Some(spec))
-                    }
-                };
-                rows.push(SymmetryRow {
-                    name: s.name.clone(),
-                    group: other.label().into(),
-                    acts_on: "X",
-                    transfer: "lifted to Q".into(),
-                    equivariance: 0.0,
-                    periodicity_drift: None,
-                    bracket_vertical: None,
-                    singular_samples: 0,
-                    notes,
-                    ok,
-                });
-                built.push(BuiltSymmetry::Lie {
-                    name: s.name.clone(),
-                    action,
-                    affine,
-                });
-            }
-        }
+            other => build_lie(kin, s, other)?,
+        };
+        rows.push(row);
+        built.push(b);
     }
     Ok((built, rows))
+}
+
+/// `ρ_Q` of the swap of a two-chain robot's chains (in order) and notes for the report: `P`
+/// from `signs` when given, else derived from the URDF across the plane with `plane_normal`
+/// (default `y`).
+fn chain_swap(
+    kin: &Kinematics,
+    name: &str,
+    pair: Option<&[String; 2]>,
+    plane_normal: Option<[f64; 3]>,
+    signs: Option<&[f64]>,
+) -> Result<(SignedPermutation, Vec<String>), CheckError> {
+    let chains = kin.chains();
+    let idx = |chain: &str| {
+        chains
+            .iter()
+            .position(|c| c.name == chain)
+            .ok_or_else(|| sym_err(name, format!("no chain `{chain}`")))
+    };
+    let (a, b) = match pair {
+        Some([x, y]) => (idx(x)?, idx(y)?),
+        None if chains.len() >= 2 => (0, 1),
+        None => return Err(sym_err(name, "needs two chains")),
+    };
+    if chains.len() != 2 || (a, b) != (0, 1) {
+        return Err(sym_err(
+            name,
+            "only the swap of a two-chain robot (chains in order) is supported",
+        ));
+    }
+    if chains[0].dof() != chains[1].dof() {
+        return Err(sym_err(
+            name,
+            "the two chains have different numbers of joints",
+        ));
+    }
+    let mut notes = Vec::new();
+    let rho_q = if let Some(p) = signs {
+        if p.len() != chains[0].dof() || p.iter().any(|v| *v != 1.0 && *v != -1.0) {
+            return Err(sym_err(
+                name,
+                format!("signs must be {} values of ±1", chains[0].dof()),
+            ));
+        }
+        notes.push(format!(
+            "P = diag{:?} (given)",
+            p.iter().map(|v| *v as i32).collect::<Vec<_>>()
+        ));
+        SignedPermutation::block_swap(p)
+    } else {
+        let n = Vector3::from(plane_normal.unwrap_or([0.0, 1.0, 0.0]));
+        let rep = derive_morphological(kin, a, b, n, &MorphoSettings::default())
+            .map_err(|e| sym_err(name, e.to_string()))?;
+        notes.push(format!(
+            "P = diag{:?} derived from the URDF ({:?}, residual {:.1e} m, {:.1e} of the chains' size)",
+            rep.p_signs.iter().map(|v| *v as i32).collect::<Vec<_>>(),
+            rep.status,
+            rep.max_residual,
+            rep.relative_residual
+        ));
+        if !rep.limit_mismatches.is_empty() {
+            notes.push(format!(
+                "{} joint-limit pairs do not map consistently under P",
+                rep.limit_mismatches.len()
+            ));
+        }
+        rep.rho_q.clone()
+    };
+    Ok((rho_q, notes))
+}
+
+/// The finite symmetry `name` acting on `Q` by `rho_q`, descended to `X` by testing FK
+/// equivariance (eq. 8), and its row.
+fn build_finite(
+    kin: &Kinematics,
+    name: &str,
+    rho_q: SignedPermutation,
+    mut notes: Vec<String>,
+) -> Result<(BuiltSymmetry, SymmetryRow), CheckError> {
+    let d = descend(name, kin, &rho_q, &DescendSettings::default())
+        .map_err(|e| sym_err(name, e.to_string()))?;
+    let rho_x = d
+        .task_action
+        .as_ref()
+        .and_then(|t| t.as_signed_permutation().cloned());
+    if let Some(px) = &rho_x {
+        let k = px.dim() / 2;
+        notes.push(format!(
+            "P_X = diag{:?}",
+            px.signs[..k].iter().map(|v| *v as i32).collect::<Vec<_>>()
+        ));
+    }
+    let row = SymmetryRow {
+        name: name.into(),
+        group: "C2".into(),
+        acts_on: "Q",
+        transfer: if d.descends() {
+            "descended to X".into()
+        } else {
+            "does not descend".into()
+        },
+        equivariance: d.relative_residual,
+        periodicity_drift: None,
+        bracket_vertical: None,
+        singular_samples: 0,
+        notes,
+        ok: d.descends(),
+    };
+    let built = BuiltSymmetry::Finite {
+        name: name.into(),
+        rho_q,
+        rho_x,
+    };
+    Ok((built, row))
+}
+
+/// The continuous symmetry `s` of kind `group` acting on `X` (affine or task-induced), to be
+/// lifted to `Q`, and its row.
+fn build_lie(
+    kin: &Kinematics,
+    s: &SymmetryConfig,
+    group: &GroupSpec,
+) -> Result<(BuiltSymmetry, SymmetryRow), CheckError> {
+    let chains = kin.chains();
+    let dims: Vec<usize> = chains.iter().map(|c| c.task.dim()).collect();
+    if dims.iter().any(|&d| d != dims[0]) {
+        return Err(sym_err(
+            &s.name,
+            "chains have task spaces of different dimensions",
+        ));
+    }
+    let mut notes = Vec::new();
+    let mut ok = true;
+    let (action, affine): (Box<dyn TaskGroupAction>, Option<LieGroupSpec>) = match group {
+        GroupSpec::TaskInduced { cost } => {
+            if s.center.is_some() {
+                return Err(sym_err(
+                    &s.name,
+                    "`center` does not apply to task-induced symmetries",
+                ));
+            }
+            let t = TaskInducedSymmetry::from_spec(
+                &s.name,
+                cost,
+                dims[0],
+                chains.len(),
+                &TaskInducedSettings::default(),
+            )
+            .map_err(|e| sym_err(&s.name, e.to_string()))?;
+            notes.push(format!("task-induced: {}", t.report().verdict()));
+            ok = t.report().is_ok() || t.report().is_group();
+            (Box::new(t), None)
+        }
+        _ => {
+            let spec = group.lie().expect("continuous kinds have a Lie spec");
+            let a = AffineAction::new(
+                &s.name,
+                spec.clone(),
+                dims[0],
+                chains.len(),
+                s.center.as_deref(),
+            )
+            .map_err(|e| sym_err(&s.name, e.to_string()))?;
+            (Box::new(a), Some(spec))
+        }
+    };
+    let row = SymmetryRow {
+        name: s.name.clone(),
+        group: group.label().into(),
+        acts_on: "X",
+        transfer: "lifted to Q".into(),
+        equivariance: 0.0,
+        periodicity_drift: None,
+        bracket_vertical: None,
+        singular_samples: 0,
+        notes,
+        ok,
+    };
+    let built = BuiltSymmetry::Lie {
+        name: s.name.clone(),
+        action,
+        affine,
+    };
+    Ok((built, row))
+}
+
+/// What every numerical test of the check shares: the robot, the sampled configurations,
+/// the check's settings and the lifted flows' settings.
+struct Probe<'a> {
+    kin: &'a Kinematics,
+    samples: &'a [Vec<f64>],
+    cfg: &'a CheckConfig,
+    flow: FlowSettings,
 }
 
 /// Runs the whole check (allocates; analysis).
@@ -553,54 +598,20 @@ pub fn check(
         .map(|q| kin.forward(q, &mut ws).amax())
         .fold(0.0f64, f64::max)
         .max(1e-12);
-    let flow = FlowSettings::default();
+    let probe = Probe {
+        kin,
+        samples: &samples,
+        cfg,
+        flow: FlowSettings::default(),
+    };
     // Lifted-action checks.
     for (b, row) in built.iter().zip(rows.iter_mut()) {
-        let BuiltSymmetry::Lie { action, affine, .. } = b else {
-            continue;
-        };
-        let action = action.as_ref();
-        let lifted = LiftedAction::new(kin, action, flow).map_err(|e| sym_err(action.name(), e))?;
-        let mut lws = lifted.workspace();
-        let mut worst: f64 = 0.0;
-        let mut singular = 0;
-        for q in &samples {
-            for xi in test_elements(affine.as_ref(), action.algebra_dim(), cfg) {
-                match lifted.equivariance_residual(&xi, q, &mut lws) {
-                    Ok(e) => worst = worst.max(e / size),
-                    Err(_) => singular += 1,
-                }
-            }
-        }
-        row.equivariance = worst;
-        row.singular_samples = singular;
-        row.ok &= worst <= 1e-6 && singular < samples.len();
-        if let Some(LieGroupSpec::So2 { .. }) = affine {
-            row.periodicity_drift = samples
-                .iter()
-                .take(6)
-                .filter_map(|q| periodicity_drift(&lifted, &[TAU], q, &mut lws).ok())
-                .reduce(f64::max);
-        }
-        if action.algebra_dim() > 1 {
-            let mut vertical: f64 = 0.0;
-            for i in 0..action.algebra_dim() {
-                for j in i + 1..action.algebra_dim() {
-                    let (gi, gj) = (basis(action, i), basis(action, j));
-                    let rep = bracket_condition(kin, &gi, &gj, &samples, DEFAULT_FD_STEP);
-                    vertical = vertical.max(rep.vertical_relative);
-                }
-            }
-            row.bracket_vertical = Some(vertical);
-        }
-        if singular > 0 {
-            row.notes
-                .push(format!("{singular} lifts hit a singularity"));
+        if let BuiltSymmetry::Lie { action, affine, .. } = b {
+            check_lifted(&probe, action.as_ref(), affine.as_ref(), size, row)?;
         }
     }
     // Pairs.
     let requested = |a: &str, b: &str| order.iter().any(|o| o == a) && order.iter().any(|o| o == b);
-    let tol = ComposeTolerance::default();
     let x_samples: Vec<Vec<f64>> = samples
         .iter()
         .map(|q| kin.forward(q, &mut ws).as_slice().to_vec())
@@ -609,100 +620,8 @@ pub fn check(
     for i in 0..built.len() {
         for j in i + 1..built.len() {
             let (a, b) = (&built[i], &built[j]);
-            let row = match (a, b) {
-                (
-                    BuiltSymmetry::Finite { rho_q: ra, .. },
-                    BuiltSymmetry::Finite { rho_q: rb, .. },
-                ) => PairRow {
-                    a: a.name().into(),
-                    b: b.name().into(),
-                    space: "Q",
-                    composition: compose::classify_finite_finite(ra, rb),
-                    lifted_vertical: None,
-                    requested: requested(a.name(), b.name()),
-                },
-                (
-                    BuiltSymmetry::Finite { rho_q, .. },
-                    BuiltSymmetry::Lie { action, affine, .. },
-                )
-                | (
-                    BuiltSymmetry::Lie { action, affine, .. },
-                    BuiltSymmetry::Finite { rho_q, .. },
-                ) => {
-                    let action = action.as_ref();
-                    let (fin, lie) = if matches!(a, BuiltSymmetry::Finite { .. }) {
-                        (a, b)
-                    } else {
-                        (b, a)
-                    };
-                    let lifted = LiftedAction::new(kin, action, flow)
-                        .map_err(|e| sym_err(action.name(), e))?;
-                    let lws = RefCell::new(lifted.workspace());
-                    let act = |xi: &[f64], q: &[f64], o: &mut [f64]| {
-                        lifted.act(xi, q, o, &mut lws.borrow_mut()).is_ok()
-                    };
-                    let fields: Vec<LiftedField<'_, _>> = (0..action.algebra_dim())
-                        .map(|k| LiftedField::new(kin, basis(action, k)))
-                        .collect();
-                    let refs: Vec<&dyn VectorField> =
-                        fields.iter().map(|f| f as &dyn VectorField).collect();
-                    let c = compose::classify_finite_lie(
-                        rho_q,
-                        &refs,
-                        &act,
-                        &test_elements(affine.as_ref(), action.algebra_dim(), cfg),
-                        &samples,
-                        ComposeTolerance {
-                            commute: 1e-6,
-                            automorphism: 1e-5,
-                        },
-                    );
-                    PairRow {
-                        a: fin.name().into(),
-                        b: lie.name().into(),
-                        space: "Q",
-                        composition: c,
-                        lifted_vertical: None,
-                        requested: requested(a.name(), b.name()),
-                    }
-                }
-                (BuiltSymmetry::Lie { action: xa, .. }, BuiltSymmetry::Lie { action: xb, .. }) => {
-                    let ga: Vec<_> = (0..xa.algebra_dim())
-                        .map(|k| basis(xa.as_ref(), k))
-                        .collect();
-                    let gb: Vec<_> = (0..xb.algebra_dim())
-                        .map(|k| basis(xb.as_ref(), k))
-                        .collect();
-                    let ra: Vec<&dyn VectorField> =
-                        ga.iter().map(|g| g.as_ref() as &dyn VectorField).collect();
-                    let rb: Vec<&dyn VectorField> =
-                        gb.iter().map(|g| g.as_ref() as &dyn VectorField).collect();
-                    let c = compose::classify_lie_lie(&ra, &rb, &x_samples, DEFAULT_FD_STEP, tol);
-                    let mut vertical: f64 = 0.0;
-                    for g1 in &ga {
-                        for g2 in &gb {
-                            vertical = vertical.max(
-                                bracket_condition(
-                                    kin,
-                                    g1.as_ref(),
-                                    g2.as_ref(),
-                                    &samples,
-                                    DEFAULT_FD_STEP,
-                                )
-                                .vertical_relative,
-                            );
-                        }
-                    }
-                    PairRow {
-                        a: a.name().into(),
-                        b: b.name().into(),
-                        space: "X",
-                        composition: c,
-                        lifted_vertical: Some(vertical),
-                        requested: requested(a.name(), b.name()),
-                    }
-                }
-            };
+            let mut row = pair_row(&probe, a, b, &x_samples)?;
+            row.requested = requested(a.name(), b.name());
             pairs.push(row);
         }
     }
@@ -712,4 +631,168 @@ pub fn check(
         symmetries: rows,
         pairs,
     })
+}
+
+/// Tests the lifted action of the task-space group `action` (`affine`: which affine group,
+/// if any) into `row`: equivariance relative to the workspace `size`, singular lifts, the
+/// drift of SO(2) after 2π and, for several parameters, the bracket condition (eq. 16).
+fn check_lifted(
+    probe: &Probe<'_>,
+    action: &dyn TaskGroupAction,
+    affine: Option<&LieGroupSpec>,
+    size: f64,
+    row: &mut SymmetryRow,
+) -> Result<(), CheckError> {
+    let (kin, samples, cfg) = (probe.kin, probe.samples, probe.cfg);
+    let lifted = LiftedAction::new(kin, action, probe.flow)
+        .map_err(|e| sym_err(action.name(), e.to_string()))?;
+    let mut lws = lifted.workspace();
+    let mut worst: f64 = 0.0;
+    let mut singular = 0;
+    for q in samples {
+        for xi in test_elements(affine, action.algebra_dim(), cfg) {
+            match lifted.equivariance_residual(&xi, q, &mut lws) {
+                Ok(e) => worst = worst.max(e / size),
+                Err(_) => singular += 1,
+            }
+        }
+    }
+    row.equivariance = worst;
+    row.singular_samples = singular;
+    row.ok &= worst <= 1e-6 && singular < samples.len();
+    if let Some(LieGroupSpec::So2 { .. }) = affine {
+        row.periodicity_drift = samples
+            .iter()
+            .take(6)
+            .filter_map(|q| periodicity_drift(&lifted, &[TAU], q, &mut lws).ok())
+            .reduce(f64::max);
+    }
+    if action.algebra_dim() > 1 {
+        let mut vertical: f64 = 0.0;
+        for i in 0..action.algebra_dim() {
+            for j in i + 1..action.algebra_dim() {
+                let (gi, gj) = (basis(action, i), basis(action, j));
+                let rep = bracket_condition(kin, &gi, &gj, samples, DEFAULT_FD_STEP);
+                vertical = vertical.max(rep.vertical_relative);
+            }
+        }
+        row.bracket_vertical = Some(vertical);
+    }
+    if singular > 0 {
+        row.notes
+            .push(format!("{singular} lifts hit a singularity"));
+    }
+    Ok(())
+}
+
+/// The decision for the pair `(a, b)` (not yet marked requested): two finite symmetries
+/// and a finite with a Lie one in `Q`, two Lie groups in `X` (`x_samples`: the sampled
+/// configurations' task points).
+fn pair_row(
+    probe: &Probe<'_>,
+    a: &BuiltSymmetry,
+    b: &BuiltSymmetry,
+    x_samples: &[Vec<f64>],
+) -> Result<PairRow, CheckError> {
+    let (space, composition, lifted_vertical) = match (a, b) {
+        (BuiltSymmetry::Finite { rho_q: ra, .. }, BuiltSymmetry::Finite { rho_q: rb, .. }) => {
+            ("Q", compose::classify_finite_finite(ra, rb), None)
+        }
+        (BuiltSymmetry::Finite { rho_q, .. }, BuiltSymmetry::Lie { action, affine, .. })
+        | (BuiltSymmetry::Lie { action, affine, .. }, BuiltSymmetry::Finite { rho_q, .. }) => {
+            let c = finite_lie(probe, rho_q, action.as_ref(), affine.as_ref())?;
+            let (fin, lie) = if matches!(a, BuiltSymmetry::Finite { .. }) {
+                (a, b)
+            } else {
+                (b, a)
+            };
+            return Ok(PairRow {
+                a: fin.name().into(),
+                b: lie.name().into(),
+                space: "Q",
+                composition: c,
+                lifted_vertical: None,
+                requested: false,
+            });
+        }
+        (BuiltSymmetry::Lie { action: xa, .. }, BuiltSymmetry::Lie { action: xb, .. }) => {
+            let (c, vertical) = lie_lie(probe, xa.as_ref(), xb.as_ref(), x_samples);
+            ("X", c, Some(vertical))
+        }
+    };
+    Ok(PairRow {
+        a: a.name().into(),
+        b: b.name().into(),
+        space,
+        composition,
+        lifted_vertical,
+        requested: false,
+    })
+}
+
+/// A finite symmetry `ρ_Q` with a lifted Lie group, decided in `Q` (eqs. 19–22).
+fn finite_lie(
+    probe: &Probe<'_>,
+    rho_q: &SignedPermutation,
+    action: &dyn TaskGroupAction,
+    affine: Option<&LieGroupSpec>,
+) -> Result<Composition, CheckError> {
+    let kin = probe.kin;
+    let lifted = LiftedAction::new(kin, action, probe.flow)
+        .map_err(|e| sym_err(action.name(), e.to_string()))?;
+    let lws = RefCell::new(lifted.workspace());
+    let act =
+        |xi: &[f64], q: &[f64], o: &mut [f64]| lifted.act(xi, q, o, &mut lws.borrow_mut()).is_ok();
+    let fields: Vec<LiftedField<'_, _>> = (0..action.algebra_dim())
+        .map(|k| LiftedField::new(kin, basis(action, k)))
+        .collect();
+    let refs: Vec<&dyn VectorField> = fields.iter().map(|f| f as &dyn VectorField).collect();
+    Ok(compose::classify_finite_lie(
+        rho_q,
+        &refs,
+        &act,
+        &test_elements(affine, action.algebra_dim(), probe.cfg),
+        probe.samples,
+        ComposeTolerance {
+            commute: 1e-6,
+            automorphism: 1e-5,
+        },
+    ))
+}
+
+/// Two task-space groups, decided in `X` at `x_samples`, and the largest relative vertical
+/// part of their lifted brackets in `Q`.
+fn lie_lie(
+    probe: &Probe<'_>,
+    xa: &dyn TaskGroupAction,
+    xb: &dyn TaskGroupAction,
+    x_samples: &[Vec<f64>],
+) -> (Composition, f64) {
+    let ga: Vec<_> = (0..xa.algebra_dim()).map(|k| basis(xa, k)).collect();
+    let gb: Vec<_> = (0..xb.algebra_dim()).map(|k| basis(xb, k)).collect();
+    let ra: Vec<&dyn VectorField> = ga.iter().map(|g| g.as_ref() as &dyn VectorField).collect();
+    let rb: Vec<&dyn VectorField> = gb.iter().map(|g| g.as_ref() as &dyn VectorField).collect();
+    let c = compose::classify_lie_lie(
+        &ra,
+        &rb,
+        x_samples,
+        DEFAULT_FD_STEP,
+        ComposeTolerance::default(),
+    );
+    let mut vertical: f64 = 0.0;
+    for g1 in &ga {
+        for g2 in &gb {
+            vertical = vertical.max(
+                bracket_condition(
+                    probe.kin,
+                    g1.as_ref(),
+                    g2.as_ref(),
+                    probe.samples,
+                    DEFAULT_FD_STEP,
+                )
+                .vertical_relative,
+            );
+        }
+    }
+    (c, vertical)
 }

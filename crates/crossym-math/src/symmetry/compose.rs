@@ -372,18 +372,44 @@ impl Condition {
     };
 
     /// Checks `θ` finite, `λ > 0` finite, `σ = ±1`; says what is wrong otherwise.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), InvalidCondition> {
         if !self.theta.is_finite() {
-            return Err(format!("theta {} is not finite", self.theta));
+            return Err(InvalidCondition::Theta { theta: self.theta });
         }
         if !(self.scale.is_finite() && self.scale > 0.0) {
-            return Err(format!("scale {} must be positive and finite", self.scale));
+            return Err(InvalidCondition::Scale { scale: self.scale });
         }
         if !(self.reflection == 1 || self.reflection == -1) {
-            return Err(format!("reflection {} must be 1 or -1", self.reflection));
+            return Err(InvalidCondition::Reflection {
+                reflection: self.reflection,
+            });
         }
         Ok(())
     }
+}
+
+/// What is wrong with a [`Condition`] ([`Condition::validate`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum InvalidCondition {
+    /// `θ` is not finite.
+    #[error("theta {theta} is not finite")]
+    Theta {
+        /// The angle given (rad).
+        theta: f64,
+    },
+    /// `λ` is not positive and finite.
+    #[error("scale {scale} must be positive and finite")]
+    Scale {
+        /// The scale given.
+        scale: f64,
+    },
+    /// `σ ∉ {1, −1}`.
+    #[error("reflection {reflection} must be 1 or -1")]
+    Reflection {
+        /// The reflection index given.
+        reflection: i8,
+    },
 }
 
 /// Composed action of eq. 23 for `s = (θ, λ, σ)`: `p ↦ ρ(σ) · Φ_R(θ, Φ_S(ln λ, p))`,

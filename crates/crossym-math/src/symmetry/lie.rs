@@ -104,6 +104,72 @@ pub struct AffineAction {
     pub offset: Vec<DVector<f64>>,
 }
 
+/// Why an affine group action cannot be built ([`AffineAction::new`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum AffineActionError {
+    /// Task blocks must be 2-D or 3-D.
+    #[error("`{name}`: task blocks must be 2-D or 3-D, got {block_dim}")]
+    BlockDim {
+        /// Symmetry name.
+        name: String,
+        /// The block dimension given.
+        block_dim: usize,
+    },
+    /// No task block to act on.
+    #[error("`{name}`: no task blocks")]
+    NoBlocks {
+        /// Symmetry name.
+        name: String,
+    },
+    /// The centre has the wrong length or a non-finite coordinate.
+    #[error("`{name}`: center {center:?} must have {block_dim} finite coordinates")]
+    Center {
+        /// Symmetry name.
+        name: String,
+        /// The centre given.
+        center: Vec<f64>,
+        /// The block dimension.
+        block_dim: usize,
+    },
+    /// SO(2) on planar blocks has an axis other than z.
+    #[error("`{name}`: SO(2) on planar blocks rotates about z only")]
+    PlanarAxis {
+        /// Symmetry name.
+        name: String,
+    },
+    /// SO(2) on 3-D blocks without an axis.
+    #[error("`{name}`: SO(2) on 3-D blocks needs `axis`")]
+    MissingAxis {
+        /// Symmetry name.
+        name: String,
+    },
+    /// The SO(2) axis is zero or not finite.
+    #[error("`{name}`: SO(2) axis {axis:?} is not a non-zero vector")]
+    Axis {
+        /// Symmetry name.
+        name: String,
+        /// The axis given.
+        axis: Vector3<f64>,
+    },
+    /// SO(3) on blocks that are not 3-D.
+    #[error("`{name}`: SO(3) needs 3-D task blocks")]
+    So3Blocks {
+        /// Symmetry name.
+        name: String,
+    },
+    /// A translation direction has the wrong length or a non-finite coordinate.
+    #[error("`{name}`: translation direction {direction:?} must have {dim} finite coordinates")]
+    Direction {
+        /// Symmetry name.
+        name: String,
+        /// The direction given.
+        direction: Vec<f64>,
+        /// The block dimension.
+        dim: usize,
+    },
+}
+
 fn skew(u: &Vector3<f64>) -> DMatrix<f64> {
     DMatrix::from_column_slice(
         3,
@@ -120,14 +186,15 @@ impl AffineAction {
         block_dim: usize,
         blocks: usize,
         center: Option<&[f64]>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, AffineActionError> {
         if !(block_dim == 2 || block_dim == 3) {
-            return Err(format!(
-                "`{name}`: task blocks must be 2-D or 3-D, got {block_dim}"
-            ));
+            return Err(AffineActionError::BlockDim {
+                name: name.into(),
+                block_dim,
+            });
         }
         if blocks == 0 {
-            return Err(format!("`{name}`: no task blocks"));
+            return Err(AffineActionError::NoBlocks { name: name.into() });
         }
         let center = match center {
             None => DVector::zeros(block_dim),
@@ -135,9 +202,11 @@ impl AffineAction {
                 DVector::from_column_slice(c)
             }
             Some(c) => {
-                return Err(format!(
-                    "`{name}`: center {c:?} must have {block_dim} finite coordinates"
-                ))
+                return Err(AffineActionError::Center {
+                    name: name.into(),
+                    center: c.to_vec(),
+                    block_dim,
+                })
             }
         };
         let d = block_dim;
@@ -146,30 +215,28 @@ impl AffineAction {
             LieGroupSpec::So2 { axis } => {
                 if d == 2 {
                     if axis.is_some_and(|a| a != [0.0, 0.0, 1.0]) {
-                        return Err(format!(
-                            "`{name}`: SO(2) on planar blocks rotates about z only"
-                        ));
+                        return Err(AffineActionError::PlanarAxis { name: name.into() });
                     }
                     (
                         vec![DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 1.0, 0.0])],
                         vec![zero_b()],
                     )
                 } else {
-                    let a =
-                        Vector3::from(axis.ok_or_else(|| {
-                            format!("`{name}`: SO(2) on 3-D blocks needs `axis`")
-                        })?);
+                    let a = Vector3::from(
+                        axis.ok_or_else(|| AffineActionError::MissingAxis { name: name.into() })?,
+                    );
                     if a.norm() <= 1e-12 || a.iter().any(|v| !v.is_finite()) {
-                        return Err(format!(
-                            "`{name}`: SO(2) axis {a:?} is not a non-zero vector"
-                        ));
+                        return Err(AffineActionError::Axis {
+                            name: name.into(),
+                            axis: a,
+                        });
                     }
                     (vec![skew(&a.normalize())], vec![zero_b()])
                 }
             }
             LieGroupSpec::So3 => {
                 if d != 3 {
-                    return Err(format!("`{name}`: SO(3) needs 3-D task blocks"));
+                    return Err(AffineActionError::So3Blocks { name: name.into() });
                 }
                 (
                     vec![
@@ -192,7 +259,11 @@ impl AffineAction {
                 let mut offs = Vec::new();
                 for v in dirs {
                     if v.len() != d || v.iter().any(|x| !x.is_finite()) {
-                        return Err(format!("`{name}`: translation direction {v:?} must have {d} finite coordinates"));
+                        return Err(AffineActionError::Direction {
+                            name: name.into(),
+                            direction: v,
+                            dim: d,
+                        });
                     }
                     offs.push(DVector::from_vec(v));
                 }

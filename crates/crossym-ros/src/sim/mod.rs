@@ -129,13 +129,44 @@ impl Default for MockHwConfig {
     }
 }
 
+/// Why the mock hardware cannot start.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum MockHwError {
+    /// A `[mock_hw]` setting is out of its domain.
+    #[error("{message}")]
+    Setting {
+        /// What is wrong (names the key and its value).
+        message: String,
+    },
+    /// The robot does not fit: joint counts, a controlled joint the URDF does not move, a
+    /// non-finite start.
+    #[error("{message}")]
+    Robot {
+        /// What is wrong (names the joint).
+        message: String,
+    },
+}
+
+impl MockHwError {
+    fn setting(message: String) -> Self {
+        Self::Setting { message }
+    }
+    fn robot(message: String) -> Self {
+        Self::Robot { message }
+    }
+}
+
 impl MockHwConfig {
     /// Checks rates and probabilities; says what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), MockHwError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
         let nonneg = |v: f64| v.is_finite() && v >= 0.0;
         if !pos(self.rate_hz) {
-            return Err(format!("rate_hz = {} must be positive", self.rate_hz));
+            return Err(MockHwError::setting(format!(
+                "rate_hz = {} must be positive",
+                self.rate_hz
+            )));
         }
         for (k, v) in [
             ("latency_s", self.latency_s),
@@ -146,31 +177,39 @@ impl MockHwConfig {
             ("reset_settle_s", self.reset_settle_s),
         ] {
             if !nonneg(v) {
-                return Err(format!("{k} = {v} must be finite and >= 0"));
+                return Err(MockHwError::setting(format!(
+                    "{k} = {v} must be finite and >= 0"
+                )));
             }
         }
         if let Some(v) = self.fault_duration_s {
             if !pos(v) {
-                return Err(format!("fault_duration_s = {v} must be finite and > 0"));
+                return Err(MockHwError::setting(format!(
+                    "fault_duration_s = {v} must be finite and > 0"
+                )));
             }
         }
         if let Some(v) = self.fault_near_limit {
             if !nonneg(v) {
-                return Err(format!("fault_near_limit = {v} must be finite and >= 0"));
+                return Err(MockHwError::setting(format!(
+                    "fault_near_limit = {v} must be finite and >= 0"
+                )));
             }
         }
         if !(0.0..=1.0).contains(&self.drop_probability) {
-            return Err(format!(
+            return Err(MockHwError::setting(format!(
                 "drop_probability = {} must be in [0, 1]",
                 self.drop_probability
-            ));
+            )));
         }
         if self.plant == physics::Plant::Mujoco && self.fault_near_limit.is_some() {
-            return Err(
+            return Err(MockHwError::setting(
                 "fault_near_limit: the physics robot starts its faults by time only".into(),
-            );
+            ));
         }
-        self.mujoco.validate().map_err(|m| format!("mujoco: {m}"))
+        self.mujoco
+            .validate()
+            .map_err(|e| MockHwError::setting(format!("mujoco: {e}")))
     }
 }
 
@@ -323,15 +362,15 @@ impl MockHardware {
         initial_q: &[f64],
         mode: OutputMode,
         cfg: MockHwConfig,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, MockHwError> {
         cfg.validate()?;
         if initial_q.len() != controlled.len() || limits.len() != controlled.len() {
-            return Err(format!(
+            return Err(MockHwError::robot(format!(
                 "initial_q has {} values, limits {}, controlled joints {}",
                 initial_q.len(),
                 limits.len(),
                 controlled.len()
-            ));
+            )));
         }
         let names: Vec<String> = model
             .joints
@@ -345,12 +384,15 @@ impl MockHardware {
             .collect();
         let mut idx = Vec::with_capacity(controlled.len());
         for (c, &q0) in controlled.iter().zip(initial_q) {
-            let i = names
-                .iter()
-                .position(|n| n == c)
-                .ok_or_else(|| format!("controlled joint `{c}` is not a movable URDF joint"))?;
+            let i = names.iter().position(|n| n == c).ok_or_else(|| {
+                MockHwError::robot(format!(
+                    "controlled joint `{c}` is not a movable URDF joint"
+                ))
+            })?;
             if !q0.is_finite() {
-                return Err(format!("initial_q for `{c}` is not finite"));
+                return Err(MockHwError::robot(format!(
+                    "initial_q for `{c}` is not finite"
+                )));
             }
             q[i] = q0;
             idx.push(i);
@@ -360,7 +402,9 @@ impl MockHardware {
                 .iter()
                 .position(|c| c == f)
                 .map(|k| idx[k])
-                .ok_or_else(|| format!("fault_joint `{f}` is not a controlled joint"))?,
+                .ok_or_else(|| {
+                    MockHwError::setting(format!("fault_joint `{f}` is not a controlled joint"))
+                })?,
             None => idx.first().copied().unwrap_or(0),
         };
         let n = controlled.len();

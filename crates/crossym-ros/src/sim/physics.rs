@@ -126,12 +126,12 @@ pub struct PhysicsRun<'a> {
 
 impl MujocoConfig {
     /// Checks values; says which is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), super::MockHwError> {
         if !["1.0", "1.1", "1.2"].contains(&self.version.as_str()) {
-            return Err(format!(
+            return Err(super::MockHwError::setting(format!(
                 "version = `{}`: the vendor's models are 1.0, 1.1 and 1.2",
                 self.version
-            ));
+            )));
         }
         for (k, v, zero_ok) in [
             ("hw_velocity", self.hw_velocity, false),
@@ -140,11 +140,15 @@ impl MujocoConfig {
             ("target_filter_hz", self.target_filter_hz, true),
         ] {
             if !(v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0))) {
-                return Err(format!("{k} = {v} must be finite and positive"));
+                return Err(super::MockHwError::setting(format!(
+                    "{k} = {v} must be finite and positive"
+                )));
             }
         }
         if self.freeze_joint.is_some() != self.freeze_after_s.is_some() {
-            return Err("freeze_joint and freeze_after_s go together".into());
+            return Err(super::MockHwError::setting(
+                "freeze_joint and freeze_after_s go together".into(),
+            ));
         }
         Ok(())
     }
@@ -297,7 +301,11 @@ mod tests {
             version: "2.0".into(),
             ..MujocoConfig::default()
         };
-        assert!(bad.validate().unwrap_err().contains("1.0, 1.1 and 1.2"));
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("1.0, 1.1 and 1.2"));
         assert!(MujocoConfig::default()
             .args(&PhysicsRun {
                 base_dir: Path::new("/"),

@@ -13,6 +13,45 @@ use crate::node::NodeRunError;
 use crossym_control::OutputMode;
 use crossym_io::msg;
 
+/// The command subscription: arrays (velocity, position) or trajectories.
+enum Cmd {
+    Array(ros2_client::Subscription<msg::Float64MultiArray>),
+    Traj(ros2_client::Subscription<msg::JointTrajectory>),
+}
+
+impl Cmd {
+    /// Hands every waiting command to `hw` in arrival order (a trajectory's last point).
+    fn drain_into(&self, hw: &mut MockHardware) {
+        match self {
+            Cmd::Array(s) => loop {
+                match s.take() {
+                    Ok(Some((m, _))) => {
+                        hw.command(&m.data);
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        eprintln!("mock_hw: undecodable command: {e:?}");
+                        break;
+                    }
+                }
+            },
+            Cmd::Traj(s) => loop {
+                match s.take() {
+                    Ok(Some((m, _))) => {
+                        let p = m.points.last().map(|p| p.positions.as_slice());
+                        hw.command(p.unwrap_or(&[]));
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        eprintln!("mock_hw: undecodable command: {e:?}");
+                        break;
+                    }
+                }
+            },
+        }
+    }
+}
+
 /// Runs `hw` over DDS until SIGINT/SIGTERM; writes the summary to `summary_path` (JSON).
 pub fn run(
     mut hw: MockHardware,
@@ -42,10 +81,6 @@ pub fn run(
         &cfg.reset_topic,
         dds::qos_reliable(10),
     )?;
-    enum Cmd {
-        Array(ros2_client::Subscription<msg::Float64MultiArray>),
-        Traj(ros2_client::Subscription<msg::JointTrajectory>),
-    }
     let cmd_sub = match mode {
         OutputMode::Velocity | OutputMode::Position => Cmd::Array(dds::subscription(
             &mut node,
@@ -85,25 +120,7 @@ pub fn run(
             tokio::select! {
                 _ = &mut signals => break,
                 _ = timer.tick() => {
-                    match &cmd_sub {
-                        Cmd::Array(s) => loop {
-                            match s.take() {
-                                Ok(Some((m, _))) => { hw.command(&m.data); }
-                                Ok(None) => break,
-                                Err(e) => { eprintln!("mock_hw: undecodable command: {e:?}"); break; }
-                            }
-                        },
-                        Cmd::Traj(s) => loop {
-                            match s.take() {
-                                Ok(Some((m, _))) => {
-                                    let p = m.points.last().map(|p| p.positions.as_slice()).unwrap_or(&[]);
-                                    hw.command(p);
-                                }
-                                Ok(None) => break,
-                                Err(e) => { eprintln!("mock_hw: undecodable command: {e:?}"); break; }
-                            }
-                        },
-                    }
+                    cmd_sub.drain_into(&mut hw);
                     while let Ok(Some((m, _))) = reset_sub.take() {
                         if !hw.reset(&m.data) {
                             eprintln!("mock_hw: ignored reset with {} values", m.data.len());

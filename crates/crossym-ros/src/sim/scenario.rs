@@ -109,76 +109,108 @@ pub enum ScenarioError {
     },
 }
 
-/// Runs `steps` against a node + mock hardware already running in the same DDS domain.
-pub fn run(
-    settings: DdsSettings,
-    topics: &ScenarioTopics,
-    kin: &Kinematics,
-    joint_names: &[String],
-    steps: &[ScenarioStep],
-    discovery_timeout: Duration,
-) -> Result<Vec<StepResult>, ScenarioError> {
-    let ctx = settings.context()?;
-    let mut node = ctx
-        .new_node(
-            dds::node_name("/", &format!("crossym_scenario_{}", std::process::id()))?,
-            NodeOptions::new().enable_rosout(false),
-        )
-        .map_err(|e| DdsError::Create {
-            what: "scenario node".into(),
-            message: format!("{e:?}"),
-        })?;
-    let cond_pub = dds::publisher::<msg::SymmetryCondition>(
-        &mut node,
-        &topics.condition,
-        dds::qos_reliable(10),
-    )?;
-    let reset_pub =
-        dds::publisher::<msg::Float64MultiArray>(&mut node, &topics.reset, dds::qos_reliable(10))?;
-    let js_sub = dds::subscription::<msg::JointState>(
-        &mut node,
-        &topics.joint_states,
-        dds::qos_reliable(100),
-    )?;
-    let status_sub =
-        dds::subscription::<msg::Status>(&mut node, &topics.status, dds::qos_reliable(100))?;
+/// The scenario's DDS endpoints: it sends conditions and resets, watches joint states and
+/// the node's status. `map[j]`: where controlled joint `j` is in the joint states.
+struct Endpoints {
+    // Owns the endpoints' participant: kept alive while they are used.
+    _node: ros2_client::Node,
+    cond_pub: ros2_client::Publisher<msg::SymmetryCondition>,
+    reset_pub: ros2_client::Publisher<msg::Float64MultiArray>,
+    js_sub: ros2_client::Subscription<msg::JointState>,
+    status_sub: ros2_client::Subscription<msg::Status>,
+    map: Vec<usize>,
+}
 
-    // Map joint-state names onto the controlled order once the first message arrives.
-    let n = joint_names.len();
-    let mut map: Option<Vec<usize>> = None;
-    let mut kws = kin.workspace();
-    let deadline = Instant::now() + discovery_timeout;
-    let (mut have_js, mut have_status) = (false, false);
-    while !(have_js && have_status) {
-        if Instant::now() > deadline {
-            return Err(ScenarioError::Timeout {
-                what: format!(
-                    "within {discovery_timeout:?}: joint states on {} {}, status on {} {}",
-                    topics.joint_states,
-                    if have_js { "seen" } else { "never seen" },
-                    topics.status,
-                    if have_status { "seen" } else { "never seen" },
-                ),
-            });
-        }
-        while let Ok(Some((m, _))) = js_sub.take() {
-            have_js = true;
-            if map.is_none() {
-                map = Some(index_map(&m.name, joint_names)?);
+/// What one step recorded from the reset pose on: joint-state times (s since the reset
+/// pose was first reported) and positions (controlled order), and the node's status.
+#[derive(Default)]
+struct Recording {
+    /// Controlled joints.
+    n: usize,
+    times: Vec<f64>,
+    qs: Vec<f64>,
+    statuses: usize,
+    on_bound: usize,
+    abnormal: Vec<i8>,
+    tick_us: Vec<f64>,
+    tick_max: f64,
+}
+
+impl Endpoints {
+    /// Creates the endpoints and waits until both joint states and a status arrived (the
+    /// first joint state fixes the name map).
+    fn connect(
+        settings: DdsSettings,
+        topics: &ScenarioTopics,
+        joint_names: &[String],
+        discovery_timeout: Duration,
+    ) -> Result<Self, ScenarioError> {
+        let ctx = settings.context()?;
+        let mut node = ctx
+            .new_node(
+                dds::node_name("/", &format!("crossym_scenario_{}", std::process::id()))?,
+                NodeOptions::new().enable_rosout(false),
+            )
+            .map_err(|e| DdsError::Create {
+                what: "scenario node".into(),
+                message: format!("{e:?}"),
+            })?;
+        let cond_pub = dds::publisher::<msg::SymmetryCondition>(
+            &mut node,
+            &topics.condition,
+            dds::qos_reliable(10),
+        )?;
+        let reset_pub = dds::publisher::<msg::Float64MultiArray>(
+            &mut node,
+            &topics.reset,
+            dds::qos_reliable(10),
+        )?;
+        let js_sub = dds::subscription::<msg::JointState>(
+            &mut node,
+            &topics.joint_states,
+            dds::qos_reliable(100),
+        )?;
+        let status_sub =
+            dds::subscription::<msg::Status>(&mut node, &topics.status, dds::qos_reliable(100))?;
+        // Map joint-state names onto the controlled order once the first message arrives.
+        let mut map: Option<Vec<usize>> = None;
+        let deadline = Instant::now() + discovery_timeout;
+        let (mut have_js, mut have_status) = (false, false);
+        while !(have_js && have_status) {
+            if Instant::now() > deadline {
+                return Err(ScenarioError::Timeout {
+                    what: format!(
+                        "within {discovery_timeout:?}: joint states on {} {}, status on {} {}",
+                        topics.joint_states,
+                        if have_js { "seen" } else { "never seen" },
+                        topics.status,
+                        if have_status { "seen" } else { "never seen" },
+                    ),
+                });
             }
+            while let Ok(Some((m, _))) = js_sub.take() {
+                have_js = true;
+                if map.is_none() {
+                    map = Some(index_map(&m.name, joint_names)?);
+                }
+            }
+            while let Ok(Some(_)) = status_sub.take() {
+                have_status = true;
+            }
+            std::thread::sleep(Duration::from_millis(5));
         }
-        while let Ok(Some(_)) = status_sub.take() {
-            have_status = true;
-        }
-        std::thread::sleep(Duration::from_millis(5));
+        Ok(Self {
+            _node: node,
+            cond_pub,
+            reset_pub,
+            js_sub,
+            status_sub,
+            map: map.expect("set when have_js"),
+        })
     }
-    let map = map.expect("set when have_js");
 
-    let mut results = Vec::with_capacity(steps.len());
-    for step in steps {
-        let c = step.condition;
-        let nominal = &step.nominal;
-        // 1. The condition, until the node's status echoes it.
+    /// Step 1: publishes condition `c` (every 200 ms) until the node's status echoes it.
+    fn send_condition(&self, topics: &ScenarioTopics, c: Condition) -> Result<(), ScenarioError> {
         let cmsg = msg::SymmetryCondition {
             header: msg::Header::default(),
             theta: c.theta,
@@ -187,14 +219,14 @@ pub fn run(
         };
         let deadline = Instant::now() + Duration::from_secs(10);
         let mut last_pub = Instant::now() - Duration::from_secs(1);
-        'echo: loop {
+        loop {
             if Instant::now() > deadline {
                 return Err(ScenarioError::Timeout {
                     what: format!("{} never echoed condition {c:?}", topics.status),
                 });
             }
             if last_pub.elapsed() >= Duration::from_millis(200) {
-                cond_pub
+                self.cond_pub
                     .publish(cmsg.clone())
                     .map_err(|e| ScenarioError::Publish {
                         topic: topics.condition.clone(),
@@ -202,75 +234,70 @@ pub fn run(
                     })?;
                 last_pub = Instant::now();
             }
-            while let Ok(Some((s, _))) = status_sub.take() {
+            while let Ok(Some((s, _))) = self.status_sub.take() {
                 let e = &s.condition;
                 if e.theta == c.theta && e.scale == c.scale && e.reflection == c.reflection {
-                    break 'echo;
+                    return Ok(());
                 }
             }
             std::thread::sleep(Duration::from_millis(5));
         }
-        // 2. Teleport the robot to the start and record until the trajectory's duration.
-        let q0 = nominal.q(0).to_vec();
-        reset_pub
+    }
+
+    /// Step 2: teleports the robot to `q0` and records until `duration` (s) after the
+    /// first joint state at `q0`.
+    fn record(
+        &self,
+        topics: &ScenarioTopics,
+        label: &str,
+        q0: &[f64],
+        duration: f64,
+        capacity: usize,
+    ) -> Result<Recording, ScenarioError> {
+        let n = self.map.len();
+        self.reset_pub
             .publish(msg::Float64MultiArray {
                 layout: msg::MultiArrayLayout::default(),
-                data: q0.clone(),
+                data: q0.to_vec(),
             })
             .map_err(|e| ScenarioError::Publish {
                 topic: topics.reset.clone(),
                 message: format!("{e:?}"),
             })?;
-        let len = nominal.len();
-        let duration = (len - 1) as f64 * nominal.dt;
-        let mut times: Vec<f64> = Vec::with_capacity(len * 3);
-        let mut qs: Vec<f64> = Vec::with_capacity(len * 3 * n);
+        let mut rec = Recording {
+            n,
+            times: Vec::with_capacity(capacity),
+            qs: Vec::with_capacity(capacity * n),
+            ..Recording::default()
+        };
         let mut t0: Option<f64> = None;
-        let mut statuses = 0usize;
-        let mut on_bound = 0usize;
-        let mut abnormal: Vec<i8> = Vec::new();
-        let mut tick_us: Vec<f64> = Vec::new();
-        let mut tick_max = 0.0f64;
         let start_wait = Instant::now();
         let mut q = vec![0.0; n];
         loop {
-            while let Ok(Some((m, _))) = js_sub.take() {
+            while let Ok(Some((m, _))) = self.js_sub.take() {
                 if m.position.len() != m.name.len() {
                     continue;
                 }
                 for j in 0..n {
-                    q[j] = m.position[map[j]];
+                    q[j] = m.position[self.map[j]];
                 }
                 let t = m.header.stamp.as_secs_f64();
                 if t0.is_none() {
                     // The first state at the reset pose marks t = 0.
-                    let at_start = q.iter().zip(&q0).all(|(a, b)| (a - b).abs() < 1e-9);
+                    let at_start = q.iter().zip(q0).all(|(a, b)| (a - b).abs() < 1e-9);
                     if at_start {
                         t0 = Some(t);
                     } else {
                         continue;
                     }
                 }
-                times.push(t - t0.unwrap_or(t));
-                qs.extend_from_slice(&q);
+                rec.times.push(t - t0.unwrap_or(t));
+                rec.qs.extend_from_slice(&q);
             }
-            while let Ok(Some((s, _))) = status_sub.take() {
-                if t0.is_none() {
-                    continue;
+            while let Ok(Some((s, _))) = self.status_sub.take() {
+                if t0.is_some() {
+                    rec.status(&s);
                 }
-                statuses += 1;
-                if s.active_constraints > 0 {
-                    on_bound += 1;
-                }
-                let code = s.code;
-                if code != StatusCode::NoWarning as i8
-                    && code != StatusCode::JointBound as i8
-                    && !abnormal.contains(&code)
-                {
-                    abnormal.push(code);
-                }
-                tick_us.push(s.tick_time_us);
-                tick_max = tick_max.max(s.tick_time_max_us);
             }
             if t0.is_none() && start_wait.elapsed() > Duration::from_secs(10) {
                 return Err(ScenarioError::Timeout {
@@ -280,18 +307,46 @@ pub fn run(
                     ),
                 });
             }
-            if times.last().is_some_and(|&t| t >= duration) {
-                break;
+            if rec.times.last().is_some_and(|&t| t >= duration) {
+                return Ok(rec);
             }
             if start_wait.elapsed() > Duration::from_secs_f64(duration + 30.0) {
                 return Err(ScenarioError::Timeout {
-                    what: format!("joint states stopped during step `{}`", step.label),
+                    what: format!("joint states stopped during step `{label}`"),
                 });
             }
             std::thread::sleep(Duration::from_millis(2));
         }
-        // 3. Resample at t_k and score.
+    }
+}
+
+impl Recording {
+    /// Counts one status of the node.
+    fn status(&mut self, s: &msg::Status) {
+        self.statuses += 1;
+        if s.active_constraints > 0 {
+            self.on_bound += 1;
+        }
+        let code = s.code;
+        if code != StatusCode::NoWarning as i8
+            && code != StatusCode::JointBound as i8
+            && !self.abnormal.contains(&code)
+        {
+            self.abnormal.push(code);
+        }
+        self.tick_us.push(s.tick_time_us);
+        self.tick_max = self.tick_max.max(s.tick_time_max_us);
+    }
+
+    /// Step 3: the recording resampled at the nominal's `t_k` (linear interpolation), its
+    /// task path and RMSE against the nominal.
+    fn score(mut self, kin: &Kinematics, step: &ScenarioStep) -> StepResult {
+        let nominal = &step.nominal;
+        let c = step.condition;
+        let (times, qs, n) = (&self.times, &self.qs, self.n);
+        let len = nominal.len();
         let m = nominal.m;
+        let mut kws = kin.workspace();
         let mut path = Vec::with_capacity(len * m);
         let mut sum = 0.0;
         let mut qk = vec![0.0; n];
@@ -319,21 +374,48 @@ pub fn run(
             sum += e2;
             path.extend(x.iter());
         }
-        tick_us.sort_by(f64::total_cmp);
-        results.push(StepResult {
+        self.tick_us.sort_by(f64::total_cmp);
+        StepResult {
             label: step.label.clone(),
             theta: c.theta,
             scale: c.scale,
             reflection: c.reflection,
             rmse: (sum / len as f64).sqrt(),
-            samples: times.len(),
-            statuses_on_bound: on_bound,
-            statuses,
-            abnormal_codes: abnormal,
-            tick_median_us: tick_us.get(tick_us.len() / 2).copied().unwrap_or(0.0),
-            tick_max_us: tick_max,
+            samples: self.times.len(),
+            statuses_on_bound: self.on_bound,
+            statuses: self.statuses,
+            tick_median_us: self
+                .tick_us
+                .get(self.tick_us.len() / 2)
+                .copied()
+                .unwrap_or(0.0),
+            tick_max_us: self.tick_max,
+            abnormal_codes: self.abnormal,
             path,
-        });
+        }
+    }
+}
+
+/// Runs `steps` against a node + mock hardware already running in the same DDS domain:
+/// per step, the condition until the node echoes it, a reset to the nominal's start, the
+/// joint states for the nominal's duration, scored against it.
+pub fn run(
+    settings: DdsSettings,
+    topics: &ScenarioTopics,
+    kin: &Kinematics,
+    joint_names: &[String],
+    steps: &[ScenarioStep],
+    discovery_timeout: Duration,
+) -> Result<Vec<StepResult>, ScenarioError> {
+    let ends = Endpoints::connect(settings, topics, joint_names, discovery_timeout)?;
+    let mut results = Vec::with_capacity(steps.len());
+    for step in steps {
+        ends.send_condition(topics, step.condition)?;
+        let nominal = &step.nominal;
+        let len = nominal.len();
+        let duration = (len - 1) as f64 * nominal.dt;
+        let rec = ends.record(topics, &step.label, nominal.q(0), duration, len * 3)?;
+        results.push(rec.score(kin, step));
     }
     Ok(results)
 }

@@ -140,7 +140,9 @@ impl TaskInducedSettings {
                 format!("{} must be positive and finite", self.flow_time),
             ));
         }
-        self.flow.validate().map_err(|m| bad_setting("flow", m))?;
+        self.flow
+            .validate()
+            .map_err(|m| bad_setting("flow", m.to_string()))?;
         if let Some(r) = &self.region {
             if r.lower.len() != dim || r.upper.len() != dim {
                 return Err(bad_setting(

@@ -71,18 +71,35 @@ impl Default for FlowSettings {
 
 impl FlowSettings {
     /// Checks that tolerances are positive and finite.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FlowSettingsError> {
         if !(self.rtol > 0.0 && self.rtol.is_finite() && self.atol > 0.0 && self.atol.is_finite()) {
-            return Err(format!(
-                "flow tolerances rtol={} atol={} must be positive",
-                self.rtol, self.atol
-            ));
+            return Err(FlowSettingsError::Tolerances {
+                rtol: self.rtol,
+                atol: self.atol,
+            });
         }
         if self.max_steps == 0 {
-            return Err("flow max_steps must be positive".into());
+            return Err(FlowSettingsError::MaxSteps);
         }
         Ok(())
     }
+}
+
+/// What is wrong with [`FlowSettings`].
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FlowSettingsError {
+    /// A tolerance is not positive and finite.
+    #[error("flow tolerances rtol={rtol} atol={atol} must be positive")]
+    Tolerances {
+        /// Relative tolerance given.
+        rtol: f64,
+        /// Absolute tolerance given.
+        atol: f64,
+    },
+    /// `max_steps` is 0.
+    #[error("flow max_steps must be positive")]
+    MaxSteps,
 }
 
 /// Numerical outcome of a flow integration.
@@ -332,9 +349,7 @@ pub fn integrate_through(
         };
     };
     let dir = if last < 0.0 { -1.0 } else { 1.0 };
-    let ordered = ts.iter().all(|t| t.is_finite() && t * dir >= 0.0)
-        && ts.windows(2).all(|w| w[1] * dir >= w[0] * dir);
-    if !ordered {
+    if !checkpoints_ordered(ts, dir) {
         return FlowStatus::NonFinite { t: 0.0 };
     }
     let mut next = 0; // first checkpoint not yet visited
@@ -358,27 +373,9 @@ pub fn integrate_through(
     if !field.eval(&ws.y, &mut ws.k[0]) {
         return FlowStatus::FieldUndefined { t: 0.0 };
     }
-    // Initial step (Hairer's heuristic, simplified).
-    let norm = |v: &[f64], y: &[f64]| -> f64 {
-        let mut acc = 0.0;
-        for (a, b) in v.iter().zip(y) {
-            let sc = settings.atol + settings.rtol * b.abs();
-            acc += (a / sc) * (a / sc);
-        }
-        (acc / d as f64).sqrt()
-    };
-    let d0 = norm(&ws.y, &ws.y);
-    let d1 = norm(&ws.k[0], &ws.y);
     // `h` is the controller's step; a step is shortened to land on the next checkpoint
     // without changing `h`.
-    let mut h = if settings.warm_start && ws.h_last > 0.0 {
-        ws.h_last
-    } else if d0 < 1e-5 || d1 < 1e-5 {
-        1e-6
-    } else {
-        0.01 * d0 / d1
-    };
-    h = h.min(total).max(total * 1e-12);
+    let mut h = initial_step(&ws.y, &ws.k[0], ws.h_last, total, settings);
     let mut attempts = 0;
     while next < ts.len() {
         attempts += 1;
@@ -389,22 +386,7 @@ pub fn integrate_through(
         let landing = s + h >= target;
         let hh = if landing { target - s } else { h };
         let hs = dir * hh;
-        let mut defined = true;
-        for stage in 1..7 {
-            for i in 0..d {
-                let mut acc = ws.y[i];
-                for (j, a) in A[stage].iter().enumerate().take(stage) {
-                    acc += hs * a * ws.k[j][i];
-                }
-                ws.tmp[i] = acc;
-            }
-            let (_, tail) = ws.k.split_at_mut(stage);
-            if !field.eval(&ws.tmp, &mut tail[0]) {
-                defined = false;
-                break;
-            }
-        }
-        if !defined {
+        if !dormand_prince_stages(field, ws, hs) {
             // Shrink the step; a genuinely undefined region stops the flow.
             if hh < total * 1e-9 {
                 return FlowStatus::FieldUndefined { t: dir * s };
@@ -415,18 +397,7 @@ pub fn integrate_through(
         }
         // The 7th stage was evaluated at y5 (FSAL): tmp holds y5.
         ws.y5.copy_from_slice(&ws.tmp);
-        let mut err = 0.0;
-        let de = settings.error_dims.unwrap_or(d).clamp(1, d);
-        for i in 0..de {
-            let mut e = 0.0;
-            for j in 0..7 {
-                e += E[j] * ws.k[j][i];
-            }
-            let e = hs * e;
-            let sc = settings.atol + settings.rtol * ws.y[i].abs().max(ws.y5[i].abs());
-            err += (e / sc) * (e / sc);
-        }
-        let err = (err / de as f64).sqrt();
+        let err = error_norm(ws, hs, settings);
         if !err.is_finite() || ws.y5.iter().any(|v| !v.is_finite()) {
             if hh < total * 1e-9 {
                 return FlowStatus::NonFinite { t: dir * s };
@@ -465,6 +436,79 @@ pub fn integrate_through(
     }
     ws.h_last = h;
     FlowStatus::Done { steps, rejected }
+}
+
+/// True when the checkpoints are finite, on the side of 0 given by `dir` (±1) and
+/// non-decreasing in `|t|`.
+fn checkpoints_ordered(ts: &[f64], dir: f64) -> bool {
+    ts.iter().all(|t| t.is_finite() && t * dir >= 0.0)
+        && ts.windows(2).all(|w| w[1] * dir >= w[0] * dir)
+}
+
+/// The first step of a flow over `|t| = total` from `y` with `X(y) = k0`: the step the
+/// controller ended the previous integration with (`h_last`) under `warm_start`, else
+/// Hairer's heuristic (simplified); clamped to `[total · 1e-12, total]`.
+fn initial_step(y: &[f64], k0: &[f64], h_last: f64, total: f64, settings: &FlowSettings) -> f64 {
+    let d = y.len();
+    let norm = |v: &[f64], y: &[f64]| -> f64 {
+        let mut acc = 0.0;
+        for (a, b) in v.iter().zip(y) {
+            let sc = settings.atol + settings.rtol * b.abs();
+            acc += (a / sc) * (a / sc);
+        }
+        (acc / d as f64).sqrt()
+    };
+    let d0 = norm(y, y);
+    let d1 = norm(k0, y);
+    let h = if settings.warm_start && h_last > 0.0 {
+        h_last
+    } else if d0 < 1e-5 || d1 < 1e-5 {
+        1e-6
+    } else {
+        0.01 * d0 / d1
+    };
+    h.min(total).max(total * 1e-12)
+}
+
+/// Stages 1–6 of one Dormand–Prince step of signed size `hs` from `ws.y` (stage 0 in
+/// `ws.k[0]`) into `ws.k[1..]`; the last is evaluated at the 5th-order solution, which is
+/// left in `ws.tmp` (FSAL). False when the field is undefined at a stage.
+#[inline]
+fn dormand_prince_stages(field: &dyn VectorField, ws: &mut FlowWorkspace, hs: f64) -> bool {
+    let d = ws.y.len();
+    for stage in 1..7 {
+        for i in 0..d {
+            let mut acc = ws.y[i];
+            for (j, a) in A[stage].iter().enumerate().take(stage) {
+                acc += hs * a * ws.k[j][i];
+            }
+            ws.tmp[i] = acc;
+        }
+        let (_, tail) = ws.k.split_at_mut(stage);
+        if !field.eval(&ws.tmp, &mut tail[0]) {
+            return false;
+        }
+    }
+    true
+}
+
+/// The step's error estimate from its stages (step `hs`, from `ws.y` to `ws.y5`): the RMS
+/// over the first `error_dims` components, each scaled by `atol + rtol · max(|y|, |y5|)`.
+#[inline]
+fn error_norm(ws: &FlowWorkspace, hs: f64, settings: &FlowSettings) -> f64 {
+    let d = ws.y.len();
+    let mut err = 0.0;
+    let de = settings.error_dims.unwrap_or(d).clamp(1, d);
+    for i in 0..de {
+        let mut e = 0.0;
+        for j in 0..7 {
+            e += E[j] * ws.k[j][i];
+        }
+        let e = hs * e;
+        let sc = settings.atol + settings.rtol * ws.y[i].abs().max(ws.y5[i].abs());
+        err += (e / sc) * (e / sc);
+    }
+    (err / de as f64).sqrt()
 }
 
 /// The field `(y, δ) ↦ (X(y), dX|_y δ)` on `R^{2d}` whose flow carries the flow map's

@@ -26,7 +26,8 @@ use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
 use crate::symmetry::field::{lie_bracket, VectorField, DEFAULT_FD_STEP};
 use crate::symmetry::lie::TaskGroupAction;
 use crate::symmetry::transfer::flow::{
-    integrate, integrate_through, FlowSettings, FlowStatus, FlowWorkspace, VariationalField,
+    integrate, integrate_through, FlowSettings, FlowSettingsError, FlowStatus, FlowWorkspace,
+    VariationalField,
 };
 
 /// Errors of the lifted action: the flow could not be carried to the requested element.
@@ -298,6 +299,31 @@ pub struct LiftWorkspace {
     y0: Vec<f64>,
 }
 
+/// Why a task-space action cannot be lifted ([`LiftedAction::new`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum LiftSetupError {
+    /// The flow settings are invalid.
+    #[error(transparent)]
+    Flow {
+        /// What is wrong with them.
+        #[from]
+        source: FlowSettingsError,
+    },
+    /// The action's space is not the robot's task space.
+    #[error(
+        "symmetry `{symmetry}` acts on R^{acts_on} but the robot's task space is R^{task_dim}"
+    )]
+    Dimension {
+        /// Symmetry name.
+        symmetry: String,
+        /// Dimension of the space it acts on.
+        acts_on: usize,
+        /// The robot's task-space dimension.
+        task_dim: usize,
+    },
+}
+
 /// Lifted action `Φ_Q(exp(ξ), q)` of a task-space Lie group action (eq. 18).
 pub struct LiftedAction<'a> {
     kin: &'a Kinematics,
@@ -311,15 +337,14 @@ impl<'a> LiftedAction<'a> {
         kin: &'a Kinematics,
         action: &'a dyn TaskGroupAction,
         settings: FlowSettings,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, LiftSetupError> {
         settings.validate()?;
         if action.dim() != kin.task_dim() {
-            return Err(format!(
-                "symmetry `{}` acts on R^{} but the robot's task space is R^{}",
-                action.name(),
-                action.dim(),
-                kin.task_dim()
-            ));
+            return Err(LiftSetupError::Dimension {
+                symmetry: action.name().into(),
+                acts_on: action.dim(),
+                task_dim: kin.task_dim(),
+            });
         }
         Ok(Self {
             kin,

@@ -279,6 +279,85 @@ pub fn derive_morphological(
     normal: Vector3<f64>,
     settings: &MorphoSettings,
 ) -> Result<MorphoReport, MorphoError> {
+    check_interchangeable(kin, a, b, settings)?;
+    let chains = kin.chains();
+    let (ca, cb) = (&chains[a], &chains[b]);
+    let norm = normal.norm();
+    if !norm.is_finite() || norm == 0.0 {
+        return Err(MorphoError::InvalidNormal {
+            normal: normal.into(),
+        });
+    }
+    let n = normal / norm;
+    let s = Matrix3::identity() - 2.0 * n * n.transpose();
+    let d = ca.task.dim();
+    let p_x = task_reflection(&s, d).ok_or(MorphoError::NotASignedPermutation {
+        normal: n.into(),
+        task: ca.task,
+    })?;
+
+    // 1–3: geometric pairing at q = 0.
+    let (mut wa, mut wb) = (ca.workspace(), cb.workspace());
+    let ga = joint_geometry(ca, &mut wa);
+    let gb = joint_geometry(cb, &mut wb);
+    let size = chains_size(&ga, &gb);
+    let Pairing {
+        pairing,
+        unmatched,
+        ambiguous,
+    } = pair_chains(&ga, &gb, &s, settings.position_tolerance * size, settings);
+    let p = SignedPermutation::new(
+        pairing.iter().map(|&(_, j, _)| j).collect(),
+        pairing.iter().map(|&(_, _, sign)| sign).collect(),
+    )
+    .expect("the pairing is a bijection");
+    let (rho_q, rho_x) = stacked_actions(kin, a, b, &pairing, &p_x);
+
+    // 4: verification in both directions.
+    let e = gb.tip_rotation.transpose() * s * ga.tip_rotation;
+    let (max_residual, orientation_residual) =
+        verify_both_ways([(ca, &mut wa), (cb, &mut wb)], &p, &s, e, d, settings);
+
+    // 5: joint limits.
+    let limit_mismatches = limit_mismatches(ca, cb, &pairing, settings);
+
+    let status = if !unmatched.is_empty() {
+        MorphoStatus::NoConsistentPairing
+    } else if max_residual > settings.residual_tolerance * size {
+        MorphoStatus::ResidualTooLarge
+    } else {
+        MorphoStatus::Symmetric
+    };
+    Ok(MorphoReport {
+        chain_a: ca.name.clone(),
+        chain_b: cb.name.clone(),
+        normal: n,
+        status,
+        p_signs: p.signs.clone(),
+        pairing,
+        p,
+        p_x,
+        rho_q,
+        rho_x,
+        unmatched,
+        ambiguous,
+        max_residual,
+        size,
+        relative_residual: max_residual / size,
+        orientation_residual,
+        limit_mismatches,
+        samples: settings.samples,
+    })
+}
+
+/// Checks that chains `a` and `b` exist, differ and can be swapped (same DoF, task space
+/// and base link), and that the verification has samples.
+fn check_interchangeable(
+    kin: &Kinematics,
+    a: usize,
+    b: usize,
+    settings: &MorphoSettings,
+) -> Result<(), MorphoError> {
     let chains = kin.chains();
     for index in [a, b] {
         if index >= chains.len() {
@@ -314,35 +393,39 @@ pub fn derive_morphological(
     if settings.samples == 0 {
         return Err(MorphoError::NoSamples);
     }
-    let norm = normal.norm();
-    if !norm.is_finite() || norm == 0.0 {
-        return Err(MorphoError::InvalidNormal {
-            normal: normal.into(),
-        });
-    }
-    let n = normal / norm;
-    let s = Matrix3::identity() - 2.0 * n * n.transpose();
-    let d = ca.task.dim();
-    let p_x = task_reflection(&s, d).ok_or(MorphoError::NotASignedPermutation {
-        normal: n.into(),
-        task: ca.task,
-    })?;
+    Ok(())
+}
 
-    // 1–3: geometric pairing at q = 0.
-    let k = ca.dof();
-    let (mut wa, mut wb) = (ca.workspace(), cb.workspace());
-    let ga = joint_geometry(ca, &mut wa);
-    let gb = joint_geometry(cb, &mut wb);
-    let size = chains_size(&ga, &gb);
-    let position_tolerance = settings.position_tolerance * size;
-    let mirrored_axis = |j: usize| {
-        let m = s * gb.axes[j];
-        if gb.prismatic[j] {
-            m
-        } else {
-            -m
-        }
-    };
+/// The joint pairing of two chains: `(i, j, s)` per joint `i` of `a`, and the joints of `a`
+/// without a mirrored counterpart or with several.
+struct Pairing {
+    pairing: Vec<(usize, usize, f64)>,
+    unmatched: Vec<usize>,
+    ambiguous: Vec<usize>,
+}
+
+/// Where `S` sends joint `j`'s axis direction: `−S z` for a rotation (axial vector), `S z`
+/// for a translation.
+fn mirrored_axis(g: &JointGeometry, s: &Matrix3<f64>, j: usize) -> Vector3<f64> {
+    let m = s * g.axes[j];
+    if g.prismatic[j] {
+        m
+    } else {
+        -m
+    }
+}
+
+/// Steps 1–3: pairs every joint of `a` with a joint of `b` whose mirrored axis line matches
+/// (within `position_tolerance` in m), unique candidates first, then ambiguous ones, then
+/// the unmatched by index order.
+fn pair_chains(
+    ga: &JointGeometry,
+    gb: &JointGeometry,
+    s: &Matrix3<f64>,
+    position_tolerance: f64,
+    settings: &MorphoSettings,
+) -> Pairing {
+    let k = ga.origins.len();
     let candidates: Vec<Vec<(usize, f64)>> = (0..k)
         .map(|i| {
             (0..k)
@@ -357,7 +440,7 @@ pub fn derive_morphological(
                     dist <= position_tolerance
                 })
                 .filter_map(|j| {
-                    let m = mirrored_axis(j);
+                    let m = mirrored_axis(gb, s, j);
                     if (m - ga.axes[i]).norm() <= settings.axis_tolerance {
                         Some((j, 1.0))
                     } else if (m + ga.axes[i]).norm() <= settings.axis_tolerance {
@@ -402,7 +485,7 @@ pub fn derive_morphological(
             } else {
                 i
             };
-            let sign = if mirrored_axis(j).dot(&ga.axes[i]) < 0.0 {
+            let sign = if mirrored_axis(gb, s, j).dot(&ga.axes[i]) < 0.0 {
                 -1.0
             } else {
                 1.0
@@ -411,7 +494,7 @@ pub fn derive_morphological(
             used[j] = true;
         }
     }
-    let pairing: Vec<(usize, usize, f64)> = chosen
+    let pairing = chosen
         .iter()
         .enumerate()
         .map(|(i, c)| {
@@ -419,17 +502,25 @@ pub fn derive_morphological(
             (i, j, sign)
         })
         .collect();
-    let p = SignedPermutation::new(
-        pairing.iter().map(|&(_, j, _)| j).collect(),
-        pairing.iter().map(|&(_, _, sign)| sign).collect(),
-    )
-    .expect("the pairing is a bijection");
-    let p_inv = p.inverse();
+    Pairing {
+        pairing,
+        unmatched,
+        ambiguous,
+    }
+}
 
-    // Stacked actions.
+/// `ρ_Q = [[0, P], [P⁻¹, 0]]` and `ρ_X = [[0, P_X], [P_X⁻¹, 0]]` on the stacked `q` and `x`
+/// of `kin` (other chains fixed).
+fn stacked_actions(
+    kin: &Kinematics,
+    a: usize,
+    b: usize,
+    pairing: &[(usize, usize, f64)],
+    p_x: &SignedPermutation,
+) -> (SignedPermutation, SignedPermutation) {
     let (qa, qb) = (kin.q_offset(a), kin.q_offset(b));
     let mut rho_q = SignedPermutation::identity(kin.dof());
-    for &(i, j, sign) in &pairing {
+    for &(i, j, sign) in pairing {
         rho_q.perm[qa + i] = qb + j;
         rho_q.signs[qa + i] = sign;
         rho_q.perm[qb + j] = qa + i;
@@ -438,25 +529,37 @@ pub fn derive_morphological(
     let (xa, xb) = (kin.x_offset(a), kin.x_offset(b));
     let p_x_inv = p_x.inverse();
     let mut rho_x = SignedPermutation::identity(kin.task_dim());
-    for r in 0..d {
+    for r in 0..p_x.dim() {
         rho_x.perm[xa + r] = xb + p_x.perm[r];
         rho_x.signs[xa + r] = p_x.signs[r];
         rho_x.perm[xb + r] = xa + p_x_inv.perm[r];
         rho_x.signs[xb + r] = p_x_inv.signs[r];
     }
+    (rho_q, rho_x)
+}
 
-    // 4: verification in both directions.
-    let e = gb.tip_rotation.transpose() * s * ga.tip_rotation;
+/// Step 4: the worst task-point residual over the first `d` coordinates (m) and the worst
+/// orientation residual of `f_a(P q_b) = S f_b(q_b)` (tip `R_a = S R_b E`) and
+/// `f_b(P⁻¹ q_a) = S f_a(q_a)` (`R_b = S R_a Eᵀ`) on seeded samples inside the limits.
+fn verify_both_ways(
+    [(ca, wa), (cb, wb)]: [(&Chain, &mut ChainWorkspace); 2],
+    p: &SignedPermutation,
+    s: &Matrix3<f64>,
+    e: Matrix3<f64>,
+    d: usize,
+    settings: &MorphoSettings,
+) -> (f64, f64) {
+    let p_inv = p.inverse();
+    let k = ca.dof();
     let mut rng = SplitMix64::new(settings.seed);
     let (mut q_src, mut q_img) = (vec![0.0; k], vec![0.0; k]);
     let (mut max_residual, mut orientation_residual) = (0.0_f64, 0.0_f64);
-    // Target chain, source chain, map on joints, body reflection on the target side:
-    // f_a(P q_b) = S f_b(q_b) with R_a = S R_b E, and f_b(P⁻¹ q_a) = S f_a(q_a) with R_b = S R_a Eᵀ.
+    // Target chain, source chain, map on joints, body reflection on the target side.
     for a_is_target in [true, false] {
         let (tgt, wt, src, wsrc, map, body) = if a_is_target {
-            (ca, &mut wa, cb, &mut wb, &p, e)
+            (ca, &mut *wa, cb, &mut *wb, p, e)
         } else {
-            (cb, &mut wb, ca, &mut wa, &p_inv, e.transpose())
+            (cb, &mut *wb, ca, &mut *wa, &p_inv, e.transpose())
         };
         for _ in 0..settings.samples {
             sample_within_limits(&src.limits, &mut rng, &mut q_src);
@@ -470,9 +573,17 @@ pub fn derive_morphological(
             orientation_residual = orientation_residual.max(rot.amax());
         }
     }
+    (max_residual, orientation_residual)
+}
 
-    // 5: joint limits.
-    let limit_mismatches = pairing
+/// Step 5: the pairs whose joint limits do not map into each other under their sign.
+fn limit_mismatches(
+    ca: &Chain,
+    cb: &Chain,
+    pairing: &[(usize, usize, f64)],
+    settings: &MorphoSettings,
+) -> Vec<LimitMismatch> {
+    pairing
         .iter()
         .filter_map(|&(i, j, sign)| {
             let (la, lb) = (ca.limits[i], cb.limits[j]);
@@ -493,35 +604,7 @@ pub fn derive_morphological(
                 }
             })
         })
-        .collect();
-
-    let status = if !unmatched.is_empty() {
-        MorphoStatus::NoConsistentPairing
-    } else if max_residual > settings.residual_tolerance * size {
-        MorphoStatus::ResidualTooLarge
-    } else {
-        MorphoStatus::Symmetric
-    };
-    Ok(MorphoReport {
-        chain_a: ca.name.clone(),
-        chain_b: cb.name.clone(),
-        normal: n,
-        status,
-        p_signs: p.signs.clone(),
-        pairing,
-        p,
-        p_x,
-        rho_q,
-        rho_x,
-        unmatched,
-        ambiguous,
-        max_residual,
-        size,
-        relative_residual: max_residual / size,
-        orientation_residual,
-        limit_mismatches,
-        samples: settings.samples,
-    })
+        .collect()
 }
 
 /// `S` restricted to the first `d` coordinates, if it maps them onto themselves as a signed permutation.

@@ -28,7 +28,14 @@
 //! allocate nothing (a caller-owned [`ComposedWorkspace`]; failures are fixed-size
 //! [`ComposedError`]s), which puts them on the control tick.
 
+mod error;
+
 use serde::{Deserialize, Serialize};
+
+pub use self::error::{
+    ComposedError, ComposedSpecError, CompositionMismatch, ConditionProblem, Factor,
+    IntegratorError,
+};
 
 use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
 use crate::symmetry::affine::{
@@ -49,122 +56,6 @@ const SPEC_TOL: f64 = 1e-9;
 /// Default [`ComposedSpec::residual_tolerance`] (task units).
 pub const DEFAULT_RESIDUAL: f64 = 1e-3;
 
-/// One continuous factor of the composition.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Factor {
-    /// `Φ_R`, flow time `θ` (rad).
-    Rotation,
-    /// `Φ_S`, flow time `ln λ`.
-    Scaling,
-}
-
-impl std::fmt::Display for Factor {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Rotation => "rotation",
-            Self::Scaling => "scaling",
-        })
-    }
-}
-
-/// What is wrong with a condition (fixed size).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ConditionProblem {
-    /// `θ` or `λ` is not finite.
-    NonFinite,
-    /// `λ ≤ 0`.
-    NonPositiveScale,
-    /// `σ ∉ {1, −1}`.
-    Reflection,
-}
-
-impl ConditionProblem {
-    /// What is wrong with `s`, if anything (allocation-free).
-    pub fn of(s: &Condition) -> Option<Self> {
-        if !(s.theta.is_finite() && s.scale.is_finite()) {
-            Some(Self::NonFinite)
-        } else if s.scale <= 0.0 {
-            Some(Self::NonPositiveScale)
-        } else if !(s.reflection == 1 || s.reflection == -1) {
-            Some(Self::Reflection)
-        } else {
-            None
-        }
-    }
-}
-
-impl std::fmt::Display for ConditionProblem {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::NonFinite => "θ or λ is not finite",
-            Self::NonPositiveScale => "λ must be positive",
-            Self::Reflection => "σ must be 1 or −1",
-        })
-    }
-}
-
-/// Why a condition's composed action could not be evaluated (fixed size, no allocation).
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ComposedError {
-    /// The lifted field is undefined at the flow's start (a singular configuration).
-    #[error("the lifted {factor} field is undefined at the start (singular configuration)")]
-    BadStart {
-        /// Which flow.
-        factor: Factor,
-    },
-    /// The flow reached a kinematic singularity at flow time `t` of `total`.
-    #[error("the lifted {factor} flow reaches a singularity at flow time {t:.4} of {total:.4}")]
-    Singular {
-        /// Which flow.
-        factor: Factor,
-        /// Flow time reached (rad for the rotation, ln λ for the scaling).
-        t: f64,
-        /// Flow time asked for.
-        total: f64,
-    },
-    /// The integration failed otherwise (non-finite state, too many steps).
-    #[error("the lifted {factor} flow failed: {status:?}")]
-    Integration {
-        /// Which flow.
-        factor: Factor,
-        /// The integrator's outcome.
-        status: FlowStatus,
-    },
-    /// The inverse misses its task-space image: `|f(Φ_g⁻¹ q) − g⁻¹ f(q)|∞ > tolerance` (a
-    /// flow crossed a singularity between integrator steps, or the integrator is too
-    /// coarse for this condition).
-    #[error(
-        "the inverse flow misses g⁻¹·f(q) by {residual:.2e} (tolerance {tolerance:.1e}): \
-         a singularity lies on the way"
-    )]
-    Residual {
-        /// `|f(Φ_g⁻¹ q) − g⁻¹ f(q)|∞` (task units).
-        residual: f64,
-        /// The tolerance it exceeds (task units).
-        tolerance: f64,
-    },
-    /// `λ ≠ 1` asked of a composition without a scaling symmetry.
-    #[error("scale λ = {scale} asked, but the composition has no scaling symmetry")]
-    NoScaling {
-        /// The scale asked for.
-        scale: f64,
-    },
-    /// The horizontal lift `J⁺(q)` is undefined at `q` (`J M⁻¹ Jᵀ` singular or below the
-    /// manipulability threshold): a task-space head cannot be lifted there.
-    #[error("the horizontal lift is undefined at q (manipulability {manipulability:.2e})")]
-    SingularLift {
-        /// `√det(J M⁻¹ Jᵀ)` at `q`.
-        manipulability: f64,
-    },
-    /// The condition is not finite, `λ ≤ 0` or `σ ∉ {±1}`.
-    #[error("invalid condition: {problem}")]
-    Condition {
-        /// What is wrong.
-        problem: ConditionProblem,
-    },
-}
-
 /// How the lifted flows are integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -184,12 +75,14 @@ pub enum LiftIntegrator {
 
 impl LiftIntegrator {
     /// Checks the settings; says what is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), IntegratorError> {
         match self {
-            Self::Adaptive { settings } => settings.validate(),
-            Self::Rk4 { max_step } if !(max_step.is_finite() && *max_step > 0.0) => Err(format!(
-                "rk4 max_step {max_step} must be positive and finite"
-            )),
+            Self::Adaptive { settings } => Ok(settings.validate()?),
+            Self::Rk4 { max_step } if !(max_step.is_finite() && *max_step > 0.0) => {
+                Err(IntegratorError::Rk4Step {
+                    max_step: *max_step,
+                })
+            }
             Self::Rk4 { .. } => Ok(()),
         }
     }
@@ -223,7 +116,7 @@ impl ComposedSpec {
         built: &[BuiltSymmetry],
         order: &[String],
         integrator: LiftIntegrator,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, ComposedSpecError> {
         let rho = crate::symmetry::parts::composition_parts(built, order)?.reflection;
         let spec = Self {
             order: order.to_vec(),
@@ -241,25 +134,25 @@ impl ComposedSpec {
 
     /// Checks the spec against the robot: the reflection acts on `Q`, the generators on
     /// `X` and are of their kinds (rotation, scaling), the integrator's settings.
-    pub fn validate(&self, kin: &Kinematics) -> Result<(), String> {
+    pub fn validate(&self, kin: &Kinematics) -> Result<(), ComposedSpecError> {
         let (n, m) = (kin.dof(), kin.task_dim());
         SignedPermutation::new(self.reflection.perm.clone(), self.reflection.signs.clone())
-            .map_err(|e| format!("reflection: {e}"))?;
+            .map_err(|source| ComposedSpecError::Reflection { source })?;
         if self.reflection.perm.len() != n {
-            return Err(format!(
-                "the reflection acts on R^{}, the robot has {n} joints",
-                self.reflection.perm.len()
-            ));
+            return Err(ComposedSpecError::ReflectionDim {
+                acts_on: self.reflection.perm.len(),
+                n,
+            });
         }
         self.task.validate()?;
         if self.task.dim != m {
-            return Err(format!(
-                "the task-space action is on R^{}, the robot's task space is R^{m}",
-                self.task.dim
-            ));
+            return Err(ComposedSpecError::TaskDim {
+                acts_on: self.task.dim,
+                m,
+            });
         }
         if self.task.reflection.is_none() {
-            return Err("the task-space action has no reflection ρ_X".into());
+            return Err(ComposedSpecError::NoTaskReflection);
         }
         for (a, want) in [
             (self.task.rotation.as_ref(), OneParamKind::Rotation),
@@ -267,43 +160,43 @@ impl ComposedSpec {
         ] {
             match a {
                 Some(a) if a.kind != want => {
-                    return Err(format!(
-                        "`{}`: a {want:?} is needed, not a {:?}",
-                        a.name, a.kind
-                    ))
+                    return Err(ComposedSpecError::WrongKind {
+                        name: a.name.clone(),
+                        want,
+                        got: a.kind,
+                    })
                 }
                 None if want == OneParamKind::Rotation => {
-                    return Err("the composition has no rotation".into())
+                    return Err(ComposedSpecError::NoRotation)
                 }
                 _ => {}
             }
         }
         if !(self.residual_tolerance.is_finite() && self.residual_tolerance > 0.0) {
-            return Err(format!(
-                "residual_tolerance {} must be positive",
-                self.residual_tolerance
-            ));
+            return Err(ComposedSpecError::ResidualTolerance {
+                tolerance: self.residual_tolerance,
+            });
         }
-        self.integrator.validate()
+        Ok(self.integrator.validate()?)
     }
 
     /// Whether `other` describes the same composition (order, reflection, generators to
     /// 1e-9 relative; the integrator may differ); says what differs.
-    pub fn same_composition(&self, other: &Self) -> Result<(), String> {
+    pub fn same_composition(&self, other: &Self) -> Result<(), CompositionMismatch> {
         if self.order != other.order {
-            return Err(format!(
-                "composition order {:?} differs from {:?}",
-                self.order, other.order
-            ));
+            return Err(CompositionMismatch::Order {
+                ours: self.order.clone(),
+                theirs: other.order.clone(),
+            });
         }
         if self.reflection != other.reflection {
-            return Err(format!(
-                "the reflection on Q differs ({:?} vs {:?})",
-                self.reflection, other.reflection
-            ));
+            return Err(CompositionMismatch::Reflection {
+                ours: self.reflection.clone(),
+                theirs: other.reflection.clone(),
+            });
         }
         if self.task.reflection != other.task.reflection {
-            return Err("the reflection on X differs".into());
+            return Err(CompositionMismatch::TaskReflection);
         }
         let close = |a: &OneParamAction, b: &OneParamAction| {
             a.linear.len() == b.linear.len()
@@ -313,22 +206,24 @@ impl ComposedSpec {
         };
         match (&self.task.rotation, &other.task.rotation) {
             (Some(a), Some(b)) if !close(a, b) => {
-                return Err(format!(
-                "the rotation `{}` differs (generator A = {:?}, b = {:?} vs A = {:?}, b = {:?})",
-                a.name, a.linear, a.offset, b.linear, b.offset
-            ))
+                return Err(CompositionMismatch::Rotation {
+                    name: a.name.clone(),
+                    linear: a.linear.clone(),
+                    offset: a.offset.clone(),
+                    other_linear: b.linear.clone(),
+                    other_offset: b.offset.clone(),
+                })
             }
             (Some(_), Some(_)) => {}
-            _ => return Err("a composition lacks its rotation".into()),
+            _ => return Err(CompositionMismatch::MissingRotation),
         }
         match (&self.task.scaling, &other.task.scaling) {
             (None, None) => Ok(()),
             (Some(a), Some(b)) if close(a, b) => Ok(()),
-            (Some(a), Some(_)) => Err(format!(
-                "the scaling `{}` differs (its centre or generator moved)",
-                a.name
-            )),
-            _ => Err("one composition has a scaling, the other not".into()),
+            (Some(a), Some(_)) => Err(CompositionMismatch::Scaling {
+                name: a.name.clone(),
+            }),
+            _ => Err(CompositionMismatch::ScalingPresence),
         }
     }
 }
@@ -416,7 +311,7 @@ impl ComposedWorkspace {
 
 impl ComposedLift {
     /// The lift of `spec` through `kin` (cloned: the lift owns its robot).
-    pub fn new(kin: &Kinematics, spec: ComposedSpec) -> Result<Self, String> {
+    pub fn new(kin: &Kinematics, spec: ComposedSpec) -> Result<Self, ComposedSpecError> {
         spec.validate(kin)?;
         let reflection =
             SignedPermutation::new(spec.reflection.perm.clone(), spec.reflection.signs.clone())?;
@@ -435,7 +330,7 @@ impl ComposedLift {
         built: &[BuiltSymmetry],
         order: &[String],
         integrator: LiftIntegrator,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, ComposedSpecError> {
         Self::new(
             kin,
             ComposedSpec::from_symmetries(kin, built, order, integrator)?,
