@@ -123,7 +123,7 @@ pub enum ComposedError {
     },
 }
 
-/// What is wrong with a [`LiftIntegrator`].
+/// What is wrong with a [`LiftIntegrator`](super::LiftIntegrator).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum IntegratorError {
@@ -142,7 +142,7 @@ pub enum IntegratorError {
     },
 }
 
-/// Why a [`ComposedSpec`] (or the [`ComposedLift`] of one) cannot be built or does not fit
+/// Why a [`ComposedSpec`](super::ComposedSpec) (or the [`ComposedLift`](super::ComposedLift) of one) cannot be built or does not fit
 /// the robot.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -221,7 +221,8 @@ pub enum ComposedSpecError {
     },
 }
 
-/// How two compositions differ ([`ComposedSpec::same_composition`]).
+/// How two compositions differ
+/// ([`ComposedSpec::same_composition`](super::ComposedSpec::same_composition)).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CompositionMismatch {
