@@ -226,17 +226,18 @@ pub fn run(a: &PingArgs) -> anyhow::Result<ExitCode> {
         "crossym ping: {js_topic} → {cmd_topic}, {} probes at {} Hz",
         a.count, a.rate
     );
-    if !warm_up(a.connect_timeout_s, &send, &replies, &cmd_topic)? {
+    let Some(warm_sent_ns) = warm_up(a.connect_timeout_s, &send, &replies, &cmd_topic)? else {
         return Ok(ExitCode::from(1));
-    }
+    };
     let period = Duration::from_secs_f64(1.0 / a.rate);
     let timeout = Duration::from_secs_f64(a.reply_timeout_ms * 1e-3);
     let mut probes: Vec<Probe> = Vec::with_capacity(a.count);
-    let (mut lost, mut stray) = (0usize, 0usize);
+    let mut lost = 0usize;
+    let mut extra = Unanswered::new(warm_sent_ns, n.stale_timeout_s.max(n.period_s));
     let mut next = Instant::now();
     for _ in 0..a.count {
-        while replies.take() {
-            stray += 1;
+        while let Some(i) = replies.try_info() {
+            extra.count(&i);
         }
         let now = Instant::now();
         if next > now {
@@ -257,8 +258,9 @@ pub fn run(a: &PingArgs) -> anyhow::Result<ExitCode> {
             t0,
             timeout,
             &answers,
-            &mut stray,
+            &mut extra,
         );
+        extra.probe(sent_ns, info.is_some());
         match info {
             Some(i) => probes.push(Probe::new(
                 t0.elapsed().as_secs_f64() * 1e6,
@@ -269,33 +271,82 @@ pub fn run(a: &PingArgs) -> anyhow::Result<ExitCode> {
             None => lost += 1,
         }
     }
-    Ok(report(a, &probes, lost, stray))
+    Ok(report(a, &probes, lost, &extra))
 }
 
-/// Discovery and warm-up: probes until 20 commands came back; `false` (and why, printed)
-/// when none came within `connect_timeout_s`.
+/// Commands that answer no probe, by what explains them (their DDS source stamps against
+/// the previous probe's publish time): the node's own ticks once no joint state came for
+/// its stale timeout (ping stalled: the node rightly commands the stale-input stop at its
+/// period), a late answer to a lost probe, or a stray (a command nothing explains, e.g.
+/// a second tick per joint state, which a driver would take for the answer to its next
+/// state).
+#[derive(Debug, Clone, PartialEq)]
+struct Unanswered {
+    /// Publish time of the previous probe (ns) and whether a command answered it.
+    prev: (i64, bool),
+    /// The node's stale timeout (at least its period), ns.
+    stale_ns: i64,
+    stray: usize,
+    own_ticks: usize,
+    late: usize,
+}
+
+impl Unanswered {
+    fn new(warm_sent_ns: i64, stale_s: f64) -> Self {
+        Self {
+            prev: (warm_sent_ns, true),
+            stale_ns: (stale_s * 1e9) as i64,
+            stray: 0,
+            own_ticks: 0,
+            late: 0,
+        }
+    }
+
+    /// The probe published at `sent_ns` was answered (or not).
+    fn probe(&mut self, sent_ns: i64, answered: bool) {
+        self.prev = (sent_ns, answered);
+    }
+
+    /// Counts a command that answers no probe.
+    fn count(&mut self, info: &ros2_client::MessageInfo) {
+        self.count_stamp(info.source_timestamp().map(|t| t.to_nanos()));
+    }
+
+    fn count_stamp(&mut self, source_ns: Option<i64>) {
+        let (sent, answered) = self.prev;
+        match source_ns {
+            Some(t) if t >= sent + self.stale_ns => self.own_ticks += 1,
+            Some(t) if t >= sent && !answered => self.late += 1,
+            _ => self.stray += 1,
+        }
+    }
+}
+
+/// Discovery and warm-up: probes until 20 commands came back; the last probe's publish
+/// time (ns), `None` (and why, printed) when none came within `connect_timeout_s`.
 fn warm_up(
     connect_timeout_s: f64,
     send: &dyn Fn() -> anyhow::Result<i64>,
     replies: &Replies,
     cmd_topic: &str,
-) -> anyhow::Result<bool> {
+) -> anyhow::Result<Option<i64>> {
     let start = Instant::now();
     let mut warm = 0;
+    let mut last = 0;
     while warm < 20 {
         if start.elapsed().as_secs_f64() > connect_timeout_s {
             eprintln!(
                 "crossym ping: no command on {cmd_topic} within {connect_timeout_s} s: is `crossym node` running with this config, the same ROS_DOMAIN_ID and network?",
             );
-            return Ok(false);
+            return Ok(None);
         }
-        send()?;
+        last = send()?;
         std::thread::sleep(Duration::from_millis(20));
         while replies.take() {
             warm += 1;
         }
     }
-    Ok(true)
+    Ok(Some(last))
 }
 
 /// `--realtime PRIORITY`: this thread under SCHED_FIFO at `p`, DDS one below, memory
@@ -335,8 +386,8 @@ fn probe_q(cfg: &Config, kin: &crossym::kinematics::Kinematics) -> Vec<f64> {
         })
 }
 
-/// The command answering the probe sent at `t0` (`answers` tells it from a stray one,
-/// counted in `stray`), waited for up to `timeout` blocked or spinning; `None` when lost.
+/// The command answering the probe sent at `t0` (`answers` tells it from an older one,
+/// counted in `extra`), waited for up to `timeout` blocked or spinning; `None` when lost.
 fn wait_reply(
     replies: &Replies,
     rt: &tokio::runtime::Runtime,
@@ -344,7 +395,7 @@ fn wait_reply(
     t0: Instant,
     timeout: Duration,
     answers: &dyn Fn(&ros2_client::MessageInfo) -> bool,
-    stray: &mut usize,
+    extra: &mut Unanswered,
 ) -> Option<ros2_client::MessageInfo> {
     loop {
         let got = if busy_wait {
@@ -364,21 +415,21 @@ fn wait_reply(
                 .flatten()
         };
         match got {
-            Some(i) if !answers(&i) => *stray += 1,
+            Some(i) if !answers(&i) => extra.count(&i),
             other => break other,
         }
     }
 }
 
 /// Prints the round trips' order statistics and their parts; exit 1 when all were lost.
-fn report(a: &PingArgs, probes: &[Probe], lost: usize, stray: usize) -> ExitCode {
+fn report(a: &PingArgs, probes: &[Probe], lost: usize, extra: &Unanswered) -> ExitCode {
     let mut rtt: Vec<f64> = probes.iter().map(|p| p.rtt).collect();
     let Some(l) = latency(&mut rtt) else {
         println!("ping: {} probes, all lost", a.count);
         return ExitCode::from(1);
     };
     println!(
-        "ping: {} round trips at {} Hz ({}): median {:.0} µs, p99 {:.0} µs, p99.9 {:.0} µs, max {:.0} µs; {lost} lost (no command within {} ms), {stray} stray commands (published before their probe)",
+        "ping: {} round trips at {} Hz ({}): median {:.0} µs, p99 {:.0} µs, p99.9 {:.0} µs, max {:.0} µs; {lost} lost (no command within {} ms), {} stray commands (published before their probe); {} late answers to lost probes, {} commands of the node's own ticks (no probe for its stale timeout)",
         rtt.len(),
         a.rate,
         if a.busy_wait { "busy-wait" } else { "blocking wait" },
@@ -386,7 +437,10 @@ fn report(a: &PingArgs, probes: &[Probe], lost: usize, stray: usize) -> ExitCode
         l.p99,
         l.p999,
         l.max,
-        a.reply_timeout_ms
+        a.reply_timeout_ms,
+        extra.stray,
+        extra.late,
+        extra.own_ticks
     );
     for (label, part) in [
         (
@@ -422,5 +476,26 @@ mod tests {
             (500.0, 990.0, 999.0, 1000.0)
         );
         assert!(latency(&mut []).is_none());
+    }
+
+    /// Unanswered commands by their source stamps (stale timeout 100 ms, probe at 1 s).
+    #[test]
+    fn unanswered_commands_are_told_apart_by_their_stamps() {
+        const MS: i64 = 1_000_000;
+        let mut u = Unanswered::new(0, 0.1);
+        u.probe(1000 * MS, true);
+        // A second command 10 ms after an answered probe: nothing explains it.
+        u.count_stamp(Some(1010 * MS));
+        // No stamp: cannot be explained either.
+        u.count_stamp(None);
+        // 100 ms and more after the probe: the node's stale-input ticks.
+        u.count_stamp(Some(1100 * MS));
+        u.count_stamp(Some(1110 * MS));
+        // After a lost probe, a command inside its stale window is its late answer; one
+        // from before it is still a stray.
+        u.probe(2000 * MS, false);
+        u.count_stamp(Some(2060 * MS));
+        u.count_stamp(Some(1990 * MS));
+        assert_eq!((u.stray, u.late, u.own_ticks), (3, 1, 2));
     }
 }

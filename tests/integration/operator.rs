@@ -272,7 +272,10 @@ fn ping_measures_round_trips_to_a_running_node() {
     };
     // At the node's own rate (100 Hz): every command must answer its probe. A node that
     // also ticked one period after each joint state would race the next probe and publish
-    // commands before it ("stray"), and ping would have scored them as replies.
+    // commands before it ("stray"), and ping would have scored them as replies. ping tells
+    // strays by their DDS source stamps from the node's stale-input ticks (when ping itself
+    // stalls past the node's 100 ms stale timeout, the node rightly commands at its period)
+    // and from late answers to lost probes, so a stalled probe cannot fail this.
     let out = ping(domain, &["--count", "300", "--rate", "100"]);
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(

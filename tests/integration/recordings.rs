@@ -18,13 +18,25 @@ fn write(
     fault: &str,
     dump: bool,
 ) -> (PathBuf, Option<serde_json::Value>) {
+    write_with(tag, storage, fault, dump, &[])
+}
+
+/// [`write`] with more options of `write_recording.py` (e.g. `--split 3`).
+fn write_with(
+    tag: &str,
+    storage: &str,
+    fault: &str,
+    dump: bool,
+    extra: &[&str],
+) -> (PathBuf, Option<serde_json::Value>) {
     let dir = common::temp_dir(&format!("rec-{tag}"));
     let bag = dir.join("bag");
     let json = dir.join("dump.json");
     let mut cmd = Command::new("python3");
     cmd.arg(common::path("tests/bags/write_recording.py"))
         .arg(&bag)
-        .args(["--storage", storage, "--fault", fault]);
+        .args(["--storage", storage, "--fault", fault])
+        .args(extra);
     if dump {
         cmd.arg("--dump").arg(&json);
     }
@@ -79,6 +91,80 @@ fn recordings_from_rosbags_match_what_was_written_in_both_storages() {
                 assert!((r.t[k] - t).abs() < 1e-12, "{storage} {stamps:?} t[{k}]");
             }
         }
+    }
+}
+
+/// A split bag (three storage files and one metadata.yaml, as `ros2 bag record
+/// --max-bag-duration` writes it; rosbags' Reader reads it back before the writer exits)
+/// reads as the one recording it is, in both storages: every sample as written, the
+/// topic counts summed; a fault in its second file is refused with the bag directory and
+/// the message's index in the whole recording.
+#[test]
+fn split_bags_read_as_one_recording() {
+    let joints = planar_joints();
+    for (storage, kind, ext) in [
+        ("sqlite3", Storage::Sqlite3, "db3"),
+        ("mcap", Storage::Mcap, "mcap"),
+    ] {
+        let (dir, dump) = write_with(
+            &format!("split-{storage}"),
+            storage,
+            "none",
+            true,
+            &["--split", "3"],
+        );
+        let files = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == ext)
+            })
+            .count();
+        assert_eq!(files, 3, "{storage}: the writer splits");
+        let bag = Bag::open(&dir).unwrap();
+        assert_eq!(bag.storage, kind);
+        let info = bag.info();
+        assert_eq!(info.message_count, 301, "{storage}");
+        let mut counts: Vec<_> = info
+            .topics
+            .iter()
+            .map(|t| (t.name.as_str(), t.count))
+            .collect();
+        counts.sort();
+        assert_eq!(
+            counts,
+            [("/joint_states", 300), ("/robot_description", 1)],
+            "{storage}"
+        );
+        let rows = dump.unwrap()["rows"].as_array().unwrap().clone();
+        let r = open_joint_states(&dir, "/joint_states", &joints, StampSource::Header).unwrap();
+        assert_eq!(r.len(), rows.len(), "{storage}");
+        let t0 = rows[0]["stamp_ns"].as_i64().unwrap();
+        for (k, row) in rows.iter().enumerate() {
+            let q: Vec<f64> = serde_json::from_value(row["q"].clone()).unwrap();
+            assert_eq!(r.q(k), &q[..], "{storage} sample {k}");
+            let t = (row["stamp_ns"].as_i64().unwrap() - t0) as f64 * 1e-9;
+            assert!((r.t[k] - t).abs() < 1e-12, "{storage} t[{k}]");
+        }
+        let (bad, _) = write_with(
+            &format!("split-nan-{storage}"),
+            storage,
+            "nan",
+            false,
+            &["--split", "3"],
+        );
+        let e = open_joint_states(&bad, "/joint_states", &joints, StampSource::Header)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(bad.to_str().unwrap())
+                && e.contains("message 150")
+                && e.contains("`right_joint2` is NaN"),
+            "{storage}: {e}"
+        );
     }
 }
 

@@ -97,7 +97,7 @@ impl std::fmt::Display for BagInfo {
 /// A bag loaded in memory.
 #[derive(Debug, Clone)]
 pub struct Bag {
-    /// The `.mcap` or `.db3` file read.
+    /// The `.mcap` or `.db3` file read (a split bag: its directory).
     pub path: PathBuf,
     /// Its storage format.
     pub storage: Storage,

@@ -20,6 +20,7 @@ pub mod content;
 mod error;
 pub mod reader;
 pub mod schema;
+mod split;
 pub mod sqlite;
 pub mod writer;
 

@@ -1,4 +1,5 @@
-//! Reading rosbag2 bags (a bag directory, a single `.mcap` file or a single `.db3` file):
+//! Reading rosbag2 bags (a bag directory, split or not, a single `.mcap` file or a single
+//! `.db3` file):
 //! MCAP here (checks the profile and encodings), SQLite3 in [`super::sqlite`]; every message
 //! loaded in log-time order, CDR decoded on demand ([`Bag::decode`]).
 
@@ -8,48 +9,47 @@ use super::content::{Bag, RawMessage, Storage, TopicInfo};
 use super::BagError;
 
 impl Bag {
-    /// Opens a bag directory (its one `.mcap` or `.db3` file), an `.mcap` file or a `.db3`
-    /// file.
+    /// Opens a bag directory (its `.mcap` or `.db3` files: several are a split bag, merged
+    /// in log-time order by [`super::split`]), an `.mcap` file or a `.db3` file.
     pub fn open(path: &Path) -> Result<Self, BagError> {
-        let file = if path.is_dir() {
-            let rd = std::fs::read_dir(path).map_err(|source| BagError::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            let mut files: Vec<PathBuf> = rd
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|e| e == "mcap" || e == "db3"))
-                .collect();
-            files.sort();
-            match files.len() {
-                1 => files.remove(0),
-                0 => {
-                    return Err(BagError::NotRos2 {
-                        path: path.to_path_buf(),
-                        message: "not a rosbag2 bag: the directory holds no .mcap or .db3 file"
-                            .into(),
-                    })
-                }
-                n => {
-                    return Err(BagError::NotRos2 {
-                        path: path.to_path_buf(),
-                        message: format!(
-                            "{n} storage files (.mcap/.db3): split bags are not supported"
-                        ),
-                    })
-                }
-            }
-        } else {
-            path.to_path_buf()
-        };
-        if file.extension().is_some_and(|e| e == "db3") {
-            return super::sqlite::open(&file);
+        if !path.is_dir() {
+            return Self::open_file(path);
         }
-        let buf = std::fs::read(&file).map_err(|source| BagError::Io {
-            path: file.clone(),
+        let rd = std::fs::read_dir(path).map_err(|source| BagError::Io {
+            path: path.to_path_buf(),
             source,
         })?;
-        Self::from_bytes(&buf, &file)
+        let mut files: Vec<PathBuf> = rd
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "mcap" || e == "db3"))
+            .collect();
+        super::split::sort_parts(&mut files);
+        match files.len() {
+            0 => Err(BagError::NotRos2 {
+                path: path.to_path_buf(),
+                message: "not a rosbag2 bag: the directory holds no .mcap or .db3 file".into(),
+            }),
+            1 => Self::open_file(&files[0]),
+            _ => {
+                let parts = files
+                    .iter()
+                    .map(|f| Self::open_file(f))
+                    .collect::<Result<Vec<_>, _>>()?;
+                super::split::merge(path, parts)
+            }
+        }
+    }
+
+    /// Opens one storage file (`.db3`: SQLite3, else MCAP).
+    fn open_file(file: &Path) -> Result<Self, BagError> {
+        if file.extension().is_some_and(|e| e == "db3") {
+            return super::sqlite::open(file);
+        }
+        let buf = std::fs::read(file).map_err(|source| BagError::Io {
+            path: file.to_path_buf(),
+            source,
+        })?;
+        Self::from_bytes(&buf, file)
     }
 
     /// Parses MCAP bytes; `path` labels errors.

@@ -262,6 +262,11 @@ pub struct MockHwSummary {
     /// Joint states published while the fault was active (count).
     #[serde(default)]
     pub joint_states_faulted: u64,
+    /// `crossym mock-hw`: timer periods it missed between its first and last step (a
+    /// loaded machine; each is a step not taken, so its simulated clock lags the wall
+    /// clock that stamps its joint states by that many periods) (count).
+    #[serde(default)]
+    pub missed_steps: u64,
     /// Physics robot only (`--plant mujoco`): its own tracking error per joint, the
     /// controller's reference − measured (rad); empty for the kinematic mock.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]

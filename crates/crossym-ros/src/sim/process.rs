@@ -109,6 +109,8 @@ pub fn run(
         cfg.rate_hz,
         cfg.joint_states_topic
     );
+    // The first and last timer ticks: the periods between them the timer skipped.
+    let (mut first_tick, mut last_tick) = (None, None);
     runtime.block_on(async {
         let signals = dds::shutdown_signal();
         tokio::pin!(signals);
@@ -119,7 +121,9 @@ pub fn run(
         loop {
             tokio::select! {
                 _ = &mut signals => break,
-                _ = timer.tick() => {
+                at = timer.tick() => {
+                    first_tick.get_or_insert(at);
+                    last_tick = Some(at);
                     cmd_sub.drain_into(&mut hw);
                     while let Ok(Some((m, _))) = reset_sub.take() {
                         if !hw.reset(&m.data) {
@@ -147,13 +151,18 @@ pub fn run(
         }
         Ok::<(), NodeRunError>(())
     })?;
-    let summary = hw.summary().clone();
+    let mut summary = hw.summary().clone();
+    if let (Some(first), Some(last)) = (first_tick, last_tick) {
+        let periods = ((last - first).as_secs_f64() / dt).round() as u64 + 1;
+        summary.missed_steps = periods.saturating_sub(summary.steps);
+    }
     eprintln!(
-        "mock_hw: stopped after {:.2} s: {} commands, {} limit violations, {} faulty joint states",
+        "mock_hw: stopped after {:.2} s: {} commands, {} limit violations, {} faulty joint states, {} timer periods missed",
         hw.time_s(),
         summary.commands_received,
         summary.violation_count,
-        summary.joint_states_faulted
+        summary.joint_states_faulted,
+        summary.missed_steps
     );
     if let Some(p) = summary_path {
         let text = serde_json::to_string_pretty(&summary).unwrap_or_default();
