@@ -65,6 +65,57 @@ pub struct LimitOverride {
     pub upper: Option<f64>,
 }
 
+/// `[redundancy]`: the null-space term of task-space heads' lift,
+/// `(I − J⁺J) v₀(q)`, toward a rest posture and away from the limits
+/// ([`crate::kinematics::null_space`]). Absent or `weight = 0`: the plain lift.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RedundancyConfig {
+    /// Gain of the pull toward the rest posture (1/s); 0: off.
+    #[serde(default)]
+    pub weight: f64,
+    /// Width of the band at each limit where the limit term acts (fraction of the range).
+    #[serde(default = "default_limit_band")]
+    pub limit_band: f64,
+    /// Gain of the limit term relative to the rest term.
+    #[serde(default = "default_limit_gain")]
+    pub limit_gain: f64,
+    /// The rest posture (rad or m, one per controlled joint); default: the config's start
+    /// posture (`[mock_hw] initial_q`, else `[check] reference_q`), else mid-range.
+    #[serde(default)]
+    pub rest: Option<Vec<f64>>,
+}
+
+fn default_limit_band() -> f64 {
+    crate::kinematics::NullSpaceSettings::default().limit_band
+}
+
+fn default_limit_gain() -> f64 {
+    crate::kinematics::NullSpaceSettings::default().limit_gain
+}
+
+impl Default for RedundancyConfig {
+    fn default() -> Self {
+        Self {
+            weight: 0.0,
+            limit_band: default_limit_band(),
+            limit_gain: default_limit_gain(),
+            rest: None,
+        }
+    }
+}
+
+impl RedundancyConfig {
+    /// The settings part.
+    pub fn settings(&self) -> crate::kinematics::NullSpaceSettings {
+        crate::kinematics::NullSpaceSettings {
+            weight: self.weight,
+            limit_band: self.limit_band,
+            limit_gain: self.limit_gain,
+        }
+    }
+}
+
 /// `[robot]`: which URDF, which chains, which joints are held fixed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -215,6 +266,9 @@ pub struct Config {
     /// The mock hardware (`[mock_hw]`).
     #[serde(default)]
     pub mock_hw: Option<crate::sim::MockHwConfig>,
+    /// Redundancy resolution of task-space heads (`[redundancy]`).
+    #[serde(default)]
+    pub redundancy: Option<RedundancyConfig>,
     /// Directory of the file, for resolving relative paths (not read from TOML).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -270,6 +324,39 @@ impl Config {
             .as_ref()
             .and_then(|m| m.initial_q.clone())
             .or_else(|| self.check.reference_q.clone())
+    }
+
+    /// The null-space term of `[redundancy]` for `kin` (its limits), `None` when absent or
+    /// off (`weight = 0`).
+    pub fn null_space_term(
+        &self,
+        kin: &Kinematics,
+    ) -> Result<Option<crate::kinematics::NullSpaceTerm>, crate::kinematics::NullSpaceError> {
+        let Some(r) = self.redundancy.as_ref() else {
+            return Ok(None);
+        };
+        let settings = r.settings();
+        settings.validate()?;
+        if !settings.enabled() {
+            return Ok(None);
+        }
+        let rest = r
+            .rest
+            .clone()
+            .or_else(|| self.start_q().filter(|q| q.len() == kin.dof()))
+            .unwrap_or_else(|| {
+                kin.limits()
+                    .iter()
+                    .map(|l| {
+                        if l.lower.is_finite() && l.upper.is_finite() {
+                            0.5 * (l.lower + l.upper)
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            });
+        crate::kinematics::NullSpaceTerm::new(settings, &rest, kin.limits()).map(Some)
     }
 
     /// Resolves a path given in this config file (relative to the file's directory).

@@ -38,6 +38,10 @@ pub struct EvalArgs {
     /// feasible condition.
     #[arg(long = "canonicalise")]
     pub canonicalise: Vec<String>,
+    /// Evaluate the task head of this label with the plain lift `J⁺ v` (repeatable),
+    /// without the config's `[redundancy]` null-space term — to compare both on one file.
+    #[arg(long = "plain-lift")]
+    pub plain_lift: Vec<String>,
 }
 
 /// Evaluation protocol of `crossym eval`.
@@ -84,11 +88,16 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<ExitCode> {
             })
             .collect::<anyhow::Result<_>>()?
     };
-    if let Some(l) = canonicalise
-        .iter()
-        .find(|l| !specs.iter().any(|(label, _)| label == *l))
-    {
-        anyhow::bail!("--canonicalise {l}: no policy labelled `{l}`");
+    for (flag, labels) in [
+        ("--canonicalise", canonicalise),
+        ("--plain-lift", &a.plain_lift),
+    ] {
+        if let Some(l) = labels
+            .iter()
+            .find(|l| !specs.iter().any(|(label, _)| label == *l))
+        {
+            anyhow::bail!("{flag} {l}: no policy labelled `{l}`");
+        }
     }
     let mut loaded = Vec::new();
     for (label, file) in specs {
@@ -99,6 +108,16 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<ExitCode> {
                     .with_context(|| format!("--canonicalise {label}"))?
             }
             other => other,
+        };
+        let policy = if a.plain_lift.contains(&label) {
+            let (p, had) = policy.with_plain_lift();
+            anyhow::ensure!(
+                had,
+                "--plain-lift {label}: not a task head with a `[redundancy]` null-space term"
+            );
+            p
+        } else {
+            policy
         };
         loaded.push((label, policy));
     }

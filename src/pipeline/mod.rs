@@ -291,7 +291,8 @@ pub fn canonicalise(
 
 /// Loads a policy of either kind ([`load_policy_for`]'s checks); a canonicalised one must
 /// be canonicalised by the configuration's composition (same order, reflection and
-/// task-space generators), else it is refused with what differs.
+/// task-space generators), else it is refused with what differs. A task head gets the
+/// config's `[redundancy]` null-space term in its lift ([`Config::null_space_term`]).
 pub fn load_any_policy(
     cfg: &Config,
     kin: &Kinematics,
@@ -324,7 +325,15 @@ pub fn load_any_policy(
         any.check_composition(&want)
             .map_err(|e| bad(format!("{e} (config {})", cfg.path.display())))?;
     }
-    Ok(any)
+    // `[redundancy]`: the null-space term joins a task head's lift (other policies have no
+    // lift to add it to and are left as they are).
+    let term = cfg
+        .null_space_term(kin)
+        .map_err(|e| bad(format!("{e} (config {})", cfg.path.display())))?;
+    match term {
+        Some(term) => Ok(any.with_null_space(term).map_err(|e| bad(e.to_string()))?.0),
+        None => Ok(any),
+    }
 }
 
 /// The nominal trajectories of `demo` under each of `conditions` for the task of `cfg`

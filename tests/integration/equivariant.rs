@@ -58,7 +58,7 @@ fn task_action(built: &[BuiltSymmetry], s: &Condition, x: &[f64]) -> Vec<f64> {
 }
 
 /// One step of the closed loop `q̇ = F(q)`: explicit Euler, or classical RK4.
-fn step(q: &mut [f64], h: f64, rk4: bool, f: &mut dyn FnMut(&[f64], &mut [f64])) {
+pub(crate) fn step(q: &mut [f64], h: f64, rk4: bool, f: &mut dyn FnMut(&[f64], &mut [f64])) {
     let n = q.len();
     if !rk4 {
         let mut v = vec![0.0; n];

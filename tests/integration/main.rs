@@ -23,6 +23,7 @@ mod pins;
 mod policy;
 mod rby1_tasks;
 mod recordings;
+mod redundancy;
 mod ros;
 mod safety;
 mod sim;

@@ -10,7 +10,7 @@ use super::BagError;
 
 impl Bag {
     /// Opens a bag directory (its `.mcap` or `.db3` files: several are a split bag, merged
-    /// in log-time order by [`super::split`]), an `.mcap` file or a `.db3` file.
+    /// in log-time order, see the private `split` module), an `.mcap` file or a `.db3` file.
     pub fn open(path: &Path) -> Result<Self, BagError> {
         if !path.is_dir() {
             return Self::open_file(path);

@@ -103,6 +103,30 @@ impl AnyPolicy {
         }
     }
 
+    /// A task head with the null-space term `term` added to its lift
+    /// ([`TaskHeadPolicy::with_null_space`]); other policies are returned unchanged with
+    /// `false` (their joint velocity is not a lift of a task velocity).
+    pub fn with_null_space(
+        self,
+        term: crossym_math::kinematics::NullSpaceTerm,
+    ) -> Result<(Self, bool), PolicyFitError> {
+        match self {
+            Self::TaskHead(p) => Ok((Self::TaskHead(Box::new(p.with_null_space(term)?)), true)),
+            other => Ok((other, false)),
+        }
+    }
+
+    /// A task head with the plain lift (its null-space term removed); `false` when there was
+    /// none to remove.
+    pub fn with_plain_lift(self) -> (Self, bool) {
+        match self {
+            Self::TaskHead(p) if p.null_space().is_some() => {
+                (Self::TaskHead(Box::new(p.without_null_space())), true)
+            }
+            other => (other, false),
+        }
+    }
+
     /// The composition a canonicalised policy is evaluated through (`None`: plain).
     pub fn composition(&self) -> Option<&ComposedSpec> {
         match self {

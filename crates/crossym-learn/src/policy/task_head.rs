@@ -19,6 +19,16 @@
 //! A sub-group's head ([`CanonicalMap`] without some factors, e.g. `π_R`) ignores the
 //! factors of `s` it lacks: it behaves as a policy that never saw them.
 //!
+//! **Redundancy** ([`TaskHeadPolicy::with_null_space`], config `[redundancy]`): on a
+//! redundant arm the lift may add a secondary motion in the null space of `J`,
+//!
+//!   π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q)) + (I − J⁺J) v₀(q),
+//!
+//! `v₀` pulling toward a rest posture and away from the joint limits
+//! ([`crossym_math::kinematics::null_space`]). `J (I − J⁺J) = 0`, so the task velocity and
+//! the exact equivariance in `X` above are unchanged; without it (the default) the lift is
+//! the plain one, bit for bit.
+//!
 //! Evaluation costs one FK with Jacobian, one `m × m` Cholesky factor and solve, and the
 //! `m`-input network (an ensemble's block-diagonal hidden layers run packed, see
 //! [`super::MlpInference`]), and allocates nothing.
@@ -27,7 +37,10 @@ use super::canonical::CanonicalMap;
 use super::error::PolicyFitError;
 use super::mlp::{Policy, PolicyWorkspace};
 use crate::data::letters::JointTrajectory;
-use crossym_math::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
+use crossym_math::kinematics::{
+    lift_with_secondary, Kinematics, KinematicsWorkspace, NullSpaceTerm, PinvStatus,
+    SecondaryWorkspace,
+};
 use crossym_math::symmetry::compose::Condition;
 use crossym_math::symmetry::transfer::composed::{ComposedError, ConditionProblem};
 
@@ -72,6 +85,7 @@ pub struct TaskHeadPolicy {
     head: Policy,
     map: CanonicalMap,
     kin: Kinematics,
+    null_space: Option<NullSpaceTerm>,
 }
 
 /// Scratch for [`TaskHeadPolicy::velocity`].
@@ -84,6 +98,9 @@ pub struct TaskHeadWorkspace {
     v: Vec<f64>,
     h: Vec<f64>,
     h2: Vec<f64>,
+    /// `v₀(q)` (n) and the secondary lift's scratch, with a null-space term.
+    v0: Vec<f64>,
+    secondary: SecondaryWorkspace,
 }
 
 impl TaskHeadPolicy {
@@ -119,7 +136,33 @@ impl TaskHeadPolicy {
             head,
             map,
             kin: kin.clone(),
+            null_space: None,
         })
+    }
+
+    /// The same head with the null-space term `(I − J⁺J) v₀(q)` added to its lift (module
+    /// docs); fails when the term is not sized for the robot.
+    pub fn with_null_space(mut self, term: NullSpaceTerm) -> Result<Self, PolicyFitError> {
+        if term.dim() != self.kin.dof() {
+            return Err(PolicyFitError::robot(format!(
+                "the null-space term has {} joints, the robot {}",
+                term.dim(),
+                self.kin.dof()
+            )));
+        }
+        self.null_space = Some(term);
+        Ok(self)
+    }
+
+    /// The same head with the plain lift (no null-space term).
+    pub fn without_null_space(mut self) -> Self {
+        self.null_space = None;
+        self
+    }
+
+    /// The null-space term added to the lift, if any.
+    pub fn null_space(&self) -> Option<&NullSpaceTerm> {
+        self.null_space.as_ref()
     }
 
     /// The network `h` over `X`.
@@ -153,10 +196,13 @@ impl TaskHeadPolicy {
             v: vec![0.0; m],
             h: vec![0.0; m],
             h2: vec![0.0; m],
+            v0: vec![0.0; self.kin.dof()],
+            secondary: SecondaryWorkspace::new(m),
         }
     }
 
-    /// `out = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))` (rad/s or m/s); allocation-free. Fails, leaving
+    /// `out = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))` (rad/s or m/s), plus `(I − J⁺J) v₀(q)` with a
+    /// null-space term; allocation-free. Fails, leaving
     /// `out` untouched, on an invalid condition or where the lift is undefined (a
     /// singular or near-singular `J`).
     pub fn velocity(
@@ -184,11 +230,19 @@ impl TaskHeadPolicy {
             v,
             h,
             h2,
+            v0,
+            secondary,
         } = ws;
         self.map.apply_inverse(s, kin.x.as_slice(), xt, h, h2);
         self.head.velocity(xt, &Condition::IDENTITY, u, head);
         self.map.apply_linear(s, u, v, h, h2);
-        self.kin.solve(kin, v, out);
+        match &self.null_space {
+            None => self.kin.solve(kin, v, out),
+            Some(term) => {
+                term.secondary(q, v0);
+                lift_with_secondary(&self.kin, kin, v, v0, out, secondary);
+            }
+        }
         Ok(())
     }
 

@@ -9,12 +9,15 @@
 //! - [`robot`]: several chains stacked as `Q = ∏ Q_i`, `X = ∏ X_i` ([`Kinematics`]).
 //! - [`tree`]: every link pose of a URDF subtree at once ([`LinkTree`]).
 //! - [`pinv`]: `J⁺ = M⁻¹Jᵀ(J M⁻¹Jᵀ + λ²I)⁻¹`, nullspace projector, manipulability.
+//! - [`null_space`]: redundancy resolution, `J⁺ v + (I − J⁺J) v₀(q)` toward a rest posture
+//!   and away from the limits.
 //!
 //! Per-tick functions take caller-owned workspaces and allocate nothing.
 
 pub mod chain;
 pub mod error;
 pub mod model;
+pub mod null_space;
 pub mod pinv;
 pub mod robot;
 pub mod tree;
@@ -25,6 +28,9 @@ pub use chain::{
 };
 pub use error::KinematicsError;
 pub use model::{JointKind, JointLimits, JointModel, Mimic, RobotModel};
+pub use null_space::{
+    lift_with_secondary, NullSpaceError, NullSpaceSettings, NullSpaceTerm, SecondaryWorkspace,
+};
 pub use pinv::{
     condition_number, DampedPinv, JacobianBlock, Metric, PinvReport, PinvStatus, PinvWorkspace,
 };
