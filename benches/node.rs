@@ -11,7 +11,8 @@
 //!   18), under the off-grid condition θ = 17°, λ = 0.73, σ = −1, flows by adaptive
 //!   Dormand–Prince or fixed-step RK4 (`CROSSYM_TICK_ONLY=eq` runs only those);
 //!   `planar_8dof-head` runs the shipped task-space head `J⁺ Dg h(g⁻¹ f(q))` (issue 17)
-//!   under the same off-grid condition.
+//!   under the same off-grid condition, `rby1-letters_14dof-head` RB-Y1's with the plain
+//!   lift and `-head-ns` with its config's null-space term `(I − J⁺J) v₀(q)` (issue 37).
 //!   A second pass times 20 000 single ticks and prints median and p99, and how many of
 //!   them the safety QP filtered (Clarabel dominates such a tick).
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
@@ -70,8 +71,9 @@ enum Kind {
     /// integrated by the given integrator.
     Canonicalised(LiftIntegrator),
     /// The shipped task-space head `J⁺ Dg h(g⁻¹ f(q))` (issue 17) under the off-grid
-    /// condition.
-    TaskHead,
+    /// condition; with the config's `[redundancy]` null-space term `(I − J⁺J) v₀(q)`
+    /// (issue 37) or the plain lift.
+    TaskHead { null_space: bool },
 }
 
 /// Off the training grid: θ = 17°, λ = 0.73, σ = −1.
@@ -85,11 +87,13 @@ const OFF_GRID: Condition = Condition {
 fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     let features = kind != Kind::NoFeatures;
     let around_demo =
-        matches!(kind, Kind::Canonicalised(_) | Kind::TaskHead) || robot == "rby1-letters";
+        matches!(kind, Kind::Canonicalised(_) | Kind::TaskHead { .. }) || robot == "rby1-letters";
+    let head = matches!(kind, Kind::TaskHead { .. });
     // Config, synthetic policy or not, and the shipped policy otherwise.
     let (cfg_name, synthetic, shipped) = match robot {
-        "planar" if kind == Kind::TaskHead => ("letters.toml", false, "pi_mrt_head_planar"),
+        "planar" if head => ("letters.toml", false, "pi_mrt_head_planar"),
         "planar" => ("letters.toml", !features, "pi_mrt_planar"),
+        "rby1-letters" if head => ("rby1-letters.toml", false, "pi_mrt_head_rby1_letters"),
         "rby1-letters" => ("rby1-letters.toml", false, "pi_mrt_rby1_letters"),
         _ => ("rby1.toml", true, ""),
     };
@@ -116,7 +120,7 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
             Some(crossym::pipeline::composition(&cfg, &kin, integrator).unwrap());
         node_cfg.default_condition = OFF_GRID;
     }
-    if kind == Kind::TaskHead {
+    if head {
         node_cfg.default_condition = OFF_GRID;
     }
     // Canonicalised and RB-Y1's letters: around the first demonstration's start (the
@@ -144,7 +148,22 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
         default_acceleration: 10.0,
         ..node_cfg.safety
     };
-    let core = NodeCore::new(kin, policy, safety, NodeConfig { ..node_cfg }).unwrap();
+    // A task head as every command loads it (the config's `[redundancy]` term in its
+    // lift), or with the plain lift.
+    let any: crossym::policy::AnyPolicy = if let Kind::TaskHead { null_space } = kind {
+        let file = root().join(format!("data/policies/{shipped}.safetensors"));
+        let any = crossym::pipeline::load_any_policy(&cfg, &kin, &file).unwrap();
+        let (any, had) = any.with_plain_lift();
+        if null_space {
+            assert!(had, "{cfg_name} has no [redundancy] null-space term");
+            crossym::pipeline::load_any_policy(&cfg, &kin, &file).unwrap()
+        } else {
+            any
+        }
+    } else {
+        policy.into()
+    };
+    let core = NodeCore::new(kin, any, safety, NodeConfig { ..node_cfg }).unwrap();
     Some((core, path))
 }
 
@@ -160,7 +179,7 @@ fn bench_tick(c: &mut Criterion) {
         ("planar", Kind::NoFeatures, "-no-xt"),
         ("planar", Kind::Canonicalised(adaptive), "-eq-adaptive"),
         ("planar", Kind::Canonicalised(rk4), "-eq-rk4"),
-        ("planar", Kind::TaskHead, "-head"),
+        ("planar", Kind::TaskHead { null_space: false }, "-head"),
         ("rby1", Kind::Features, ""),
         ("rby1", Kind::NoFeatures, "-no-xt"),
         ("rby1-letters", Kind::Features, ""),
@@ -170,6 +189,16 @@ fn bench_tick(c: &mut Criterion) {
             "-eq-adaptive",
         ),
         ("rby1-letters", Kind::Canonicalised(rk4), "-eq-rk4"),
+        (
+            "rby1-letters",
+            Kind::TaskHead { null_space: false },
+            "-head",
+        ),
+        (
+            "rby1-letters",
+            Kind::TaskHead { null_space: true },
+            "-head-ns",
+        ),
     ] {
         if only
             .as_deref()

@@ -13,6 +13,7 @@ mod common;
 mod demo;
 mod demos;
 mod density;
+mod endurance;
 mod eval;
 mod info;
 mod mock_hw;
@@ -57,6 +58,10 @@ enum Command {
     /// robot (input faults, latency, adversarial policies, tight limits); a table of limit
     /// violations. Exits 1 on any violation or non-finite command.
     Stress(stress::StressArgs),
+    /// Endurance: the node core of a config in a long closed loop with a kinematic robot
+    /// (faster than real time) under a cyclic schedule of conditions: limit margins, ticks
+    /// on a bound, the posture drift of a redundant arm. Exits 1 when a joint left its limits.
+    Endurance(endurance::EnduranceArgs),
     /// A live one-line view of a running node's ~/status (code, condition, joint-state age,
     /// tick time, counters, last error). Exits 1 when no node answers within --timeout-s.
     Status(status::StatusArgs),
@@ -114,6 +119,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Demo(a) => demo::run(a),
         Command::Rollout(a) => rollout::run(a),
         Command::Stress(a) => stress::run(a),
+        Command::Endurance(a) => endurance::run(a),
         Command::Status(a) => status::run(a),
         Command::Ping(a) => ping::run(a),
         Command::Symmetries(a) => symmetries::run(a),

@@ -63,6 +63,14 @@ pub enum NodeSetupError {
         /// Controlled joints.
         joints: usize,
     },
+    /// `[redundancy]` cannot be used with this robot.
+    #[error("{}: {source}", path.display())]
+    Redundancy {
+        /// The config file.
+        path: PathBuf,
+        /// What is wrong.
+        source: crate::kinematics::NullSpaceError,
+    },
 }
 
 /// Overrides of `[node]` (the command line's `--policy`, `--name`, …); `None` keeps the
@@ -237,11 +245,22 @@ pub fn stress_geometry(cfg: &Config, name: &str) -> Result<Geometry, NodeSetupEr
             joints: n,
         });
     }
+    // A task head's `[redundancy]` term (rest checked against the robot's limits here; each
+    // episode builds it against its own).
+    let null_space = cfg
+        .null_space_term(&robot.kinematics)
+        .map_err(|source| NodeSetupError::Redundancy {
+            path: cfg.path.clone(),
+            source,
+        })?
+        .filter(|_| policy.meta.task_head.is_some())
+        .map(|t| (*t.settings(), t.rest().to_vec()));
     Ok(Geometry {
         name: name.to_string(),
         kinematics: robot.kinematics,
         policy,
         node,
         rest,
+        null_space,
     })
 }

@@ -81,6 +81,20 @@ fn shipped_rby1_policies_score_as_shipped() {
         &[(15.0, 1.0, 1), (-30.0, 1.0, -1)],
     );
     assert_pinned("pi_mr_rby1_pan", &pan, PIN_RBY1_PAN);
+    // The task-space heads (issue 37), as every command loads them: with their configs'
+    // `[redundancy]` null-space term in the lift.
+    let head = scores(
+        "rby1-letters.toml",
+        "pi_mrt_head_rby1_letters.safetensors",
+        PLANAR,
+    );
+    assert_pinned("pi_mrt_head_rby1_letters", &head, PIN_RBY1_LETTERS_HEAD);
+    let pan_head = scores(
+        "rby1-pan.toml",
+        "pi_mr_head_rby1_pan.safetensors",
+        &[(15.0, 1.0, 1), (-30.0, 1.0, -1)],
+    );
+    assert_pinned("pi_mr_head_rby1_pan", &pan_head, PIN_RBY1_PAN_HEAD);
 }
 
 // Measured 2026-12-03 with the shipped files (first test demonstration; conditions as
@@ -95,6 +109,13 @@ const PIN_RBY1_LETTERS: &[f64] = &[
     0.011675511343040713,
 ];
 const PIN_RBY1_PAN: &[f64] = &[0.011041646507939866, 0.021858430966004646];
+// Measured 2026-12-04 with the heads shipped that day.
+const PIN_RBY1_LETTERS_HEAD: &[f64] = &[
+    0.015627473495893544,
+    0.01248939286059583,
+    0.007811563389513326,
+];
+const PIN_RBY1_PAN_HEAD: &[f64] = &[0.01148510624695452, 0.011475971362621865];
 
 /// The resampled (real-robot) protocol on a tiny example computed by hand: a path of 3
 /// samples × 1 column resampled to 5 points over normalised time, against a constant

@@ -133,15 +133,36 @@ impl NodeConfig {
     /// `None` (every valid condition) with `accept_untrained_conditions` or when the policy
     /// records no training; an error names a malformed training record.
     /// A canonicalised policy has no box: it is checked for feasibility instead; nor has a
-    /// task head of the whole group (reflection, rotation and scaling), exactly
+    /// task head of the whole group (reflection, rotation and scaling, or reflection and
+    /// rotation at λ = 1 when the sidecar's composition has no scaling), exactly
     /// equivariant in `X` for every condition whose drawing the arms reach.
     pub fn condition_domain(&self, policy: &AnyPolicy) -> Result<Option<ConditionDomain>, String> {
-        let whole_group = policy.task_head().is_some_and(|h| {
-            let m = h.map();
-            m.reflection.is_some() && m.rotation.is_some() && m.scaling.is_some()
-        });
-        if self.accept_untrained_conditions || policy.composition().is_some() || whole_group {
+        if self.accept_untrained_conditions || policy.composition().is_some() {
             return Ok(None);
+        }
+        if let Some(h) = policy.task_head() {
+            let m = h.map();
+            if m.reflection.is_some() && m.rotation.is_some() {
+                if m.scaling.is_some() {
+                    return Ok(None);
+                }
+                // A composition without a scaling (`[M, R]`, e.g. the pan): the whole group
+                // is every θ and σ at λ = 1 — a scale the head cannot apply is refused, not
+                // ignored.
+                let order = policy.network().meta.symmetry.get("order");
+                let has_s = order
+                    .and_then(|o| o.as_array())
+                    .is_none_or(|o| o.iter().any(|n| n.as_str() == Some("S")));
+                if !has_s {
+                    let corner = |theta: f64, reflection: i8| Condition {
+                        theta,
+                        scale: 1.0,
+                        reflection,
+                    };
+                    let pi = std::f64::consts::PI;
+                    return Ok(ConditionDomain::spanning(&[corner(pi, -1), corner(-pi, 1)]));
+                }
+            }
         }
         ConditionDomain::from_meta(&policy.network().meta)
     }

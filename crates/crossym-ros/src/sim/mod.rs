@@ -18,6 +18,7 @@
 //!
 //! [`MockHardware`] is the simulation without DDS; [`process`] runs it as a DDS node.
 
+pub mod endurance;
 pub mod physics;
 pub mod process;
 pub mod scenario;

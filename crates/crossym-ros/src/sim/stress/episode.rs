@@ -9,7 +9,8 @@ use rand::{Rng, SeedableRng};
 use crossym_control::safety::BoundRules;
 use crossym_control::{NodeCore, OutputMode};
 use crossym_io::msg;
-use crossym_math::kinematics::JointLimits;
+use crossym_learn::policy::AnyPolicy;
+use crossym_math::kinematics::{JointLimits, NullSpaceTerm};
 
 use super::adversary::AdversaryOutput;
 use super::plan::EpisodePlan;
@@ -216,15 +217,19 @@ fn node_core<R: BoundRules>(
     let safety = plan.node.safety;
     let vmax: Vec<f64> = plan.limits.iter().map(|l| l.velocity).collect();
     let output = AdversaryOutput::new(plan.adversary, vmax, plan.signs.clone(), seed);
-    let mut core = NodeCore::with_stages(
-        kin,
-        g.policy.clone(),
-        safety,
-        plan.node.clone(),
-        output,
-        rules,
-    )
-    .map_err(|e| format!("{}: {e}", g.name))?;
+    // A task head runs with its config's null-space term, against this episode's limits.
+    let mut policy =
+        AnyPolicy::new(g.policy.clone(), &kin).map_err(|e| format!("{}: {e}", g.name))?;
+    if let Some((settings, rest)) = &g.null_space {
+        let term = NullSpaceTerm::new(*settings, rest, kin.limits())
+            .map_err(|e| format!("{}: {e}", g.name))?;
+        policy = policy
+            .with_null_space(term)
+            .map_err(|e| format!("{}: {e}", g.name))?
+            .0;
+    }
+    let mut core = NodeCore::with_stages(kin, policy, safety, plan.node.clone(), output, rules)
+        .map_err(|e| format!("{}: {e}", g.name))?;
     let c = plan.condition;
     let _ = core.on_condition(&msg::SymmetryCondition {
         header: msg::Header::default(),

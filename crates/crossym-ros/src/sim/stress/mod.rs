@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use crossym_control::safety::BoundRules;
 use crossym_control::{NodeConfig, OutputMode};
 use crossym_learn::policy::Policy;
-use crossym_math::kinematics::Kinematics;
+use crossym_math::kinematics::{Kinematics, NullSpaceSettings};
 
 pub use self::adversary::Adversary;
 pub use self::episode::run_episode;
@@ -54,6 +54,9 @@ pub struct Geometry {
     pub node: NodeConfig,
     /// Rest posture (rad or m), the centre of tight limits.
     pub rest: Vec<f64>,
+    /// The config's null-space term of a task head's lift (`[redundancy]`: settings and
+    /// rest posture), built per episode against the episode's limits.
+    pub null_space: Option<(NullSpaceSettings, Vec<f64>)>,
 }
 
 /// What a campaign runs.
