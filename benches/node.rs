@@ -37,7 +37,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use crossym::config::Config;
-use crossym::control::{NodeConfig, NodeCore, StatusCode, Trigger};
+use crossym::control::{NodeConfig, NodeCore, OutputMode, StatusCode, Trigger};
 use crossym::msg;
 use crossym::policy::{Policy, TaskFeatures};
 use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
@@ -115,6 +115,12 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
         Policy::load(root().join(format!("data/policies/{shipped}.safetensors"))).unwrap()
     };
     let mut node_cfg = cfg.node.clone().unwrap_or_default();
+    // Velocity output whatever the config says: the path of joint states ignores the
+    // commands, so a position-mode node (RB-Y1's trajectory output) would restart from the
+    // measured state, then hold as ROBOT_NOT_FOLLOWING and time the hold, not the policy
+    // (the RB-Y1 cases measured 0.3 µs that way until 2026-12-04). Every tick is checked
+    // below to have run the policy.
+    node_cfg.output = OutputMode::Velocity;
     if let Kind::Canonicalised(integrator) = kind {
         policy.meta.canonicalised =
             Some(crossym::pipeline::composition(&cfg, &kin, integrator).unwrap());
@@ -218,6 +224,8 @@ fn bench_tick(c: &mut Criterion) {
         };
         let mut k = 0usize;
         let mut infeasible = 0usize;
+        // Ticks that did not run the policy and the filter (a hold, a stale input).
+        let mut held = 0usize;
         // Ticks whose policy output the filter changed (the QP ran): what the tick costs
         // depends on it (Clarabel is most of a filtered tick).
         let mut filtered = 0usize;
@@ -228,6 +236,7 @@ fn bench_tick(c: &mut Criterion) {
             core.load_inputs(gate.inputs());
             let r = core.tick(now, &mut cmd);
             infeasible += usize::from(r.code == StatusCode::ConditionInfeasible);
+            held += usize::from(r.safety.is_none());
             k += 1;
             black_box(r).safety != Some(SafetyStatus::Passthrough)
         };
@@ -254,6 +263,10 @@ fn bench_tick(c: &mut Criterion) {
         assert_eq!(
             infeasible, 0,
             "{label}: the off-grid condition must stay feasible on the path"
+        );
+        assert_eq!(
+            held, 0,
+            "{label}: ticks that ran no policy (a hold) are not what this bench times"
         );
     }
     g.finish();

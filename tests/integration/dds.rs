@@ -726,3 +726,77 @@ fn rby1_letters_closed_loop() {
         "0.003",
     );
 }
+
+/// Conditions from what the robot sees (issue 37): the RB-Y1 pan config's node
+/// (`[node.task_pose]`) beside the mock hardware, and an independent perception stand-in
+/// (`tests/peer/pose_peer.py`, Cyclone DDS) turning the pan while the robot works: the
+/// node's condition follows each pose as the peer computes it from the handle's position
+/// (both arms: σ flips when the handle crosses the mirror plane); a pose in another frame,
+/// a moved pan and a stale pose are refused and logged, the condition in force kept; a
+/// `symmetry_condition` message takes over and the pose takes over again, each switch
+/// logged; the robot never leaves its limits.
+#[test]
+fn conditions_follow_the_observed_pan_pose() {
+    if common::rby1_urdf().is_none() {
+        return;
+    }
+    assert!(
+        common::python_has_cyclonedds(),
+        "PyPI cyclonedds is missing: run `bash tests/peer/install.sh` (.ci/run does)"
+    );
+    let dir = tmp_dir("task-pose");
+    let domain = 79u16;
+    let (hw_log, node_log) = (dir.join("hw.log"), dir.join("node.log"));
+    let summary = dir.join("hw.json");
+    let cfg = common::root().join("config/rby1-pan.toml");
+    let c = cfg.to_str().unwrap();
+    let mut hw = spawn(
+        "mock-hw",
+        &[
+            "mock-hw",
+            "--config",
+            c,
+            "--summary",
+            summary.to_str().unwrap(),
+        ],
+        domain,
+        &hw_log,
+    );
+    let mut node = spawn("node", &["node", "--config", c], domain, &node_log);
+    let json = dir.join("pose.json");
+    let out = Command::new("python3")
+        .arg(common::root().join("tests/peer/pose_peer.py"))
+        .args(["--domain", &domain.to_string(), "--timeout", "30", "--json"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(node.term(), 0, "{}", log_tail(&node_log));
+    assert_eq!(hw.term(), 0, "{}", log_tail(&hw_log));
+    assert!(
+        out.status.success(),
+        "pose peer failed ({:?}):\n{stdout}\n{}\n--- node log\n{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr),
+        log_tail(&node_log)
+    );
+    let checks: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(checks.len(), 9, "{stdout}");
+    let log = std::fs::read_to_string(&node_log).unwrap();
+    for needle in [
+        "conditions also from the object pose on /crossym/task_pose",
+        "rejected task_pose (keeping the condition in force): pose in frame `world`",
+        "conditions now from symmetry_condition",
+        "conditions now from the task pose",
+    ] {
+        assert!(
+            log.contains(needle),
+            "`{needle}` not in the node log:\n{log}"
+        );
+    }
+    let s: MockHwSummary =
+        serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
+    assert_eq!(s.violation_count, 0, "{s:?}");
+    assert_eq!(s.commands_invalid, 0, "{s:?}");
+}

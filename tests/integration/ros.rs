@@ -94,6 +94,10 @@ fn message_tables_follow_serde_order() {
     check_serde::<msg::JointTrajectory>();
     check_serde::<msg::SymmetryCondition>();
     check_serde::<msg::Status>();
+    check_serde::<msg::Point>();
+    check_serde::<msg::Quaternion>();
+    check_serde::<msg::Pose>();
+    check_serde::<msg::PoseStamped>();
     assert_eq!(
         msg::JointState::TYPE_NAME,
         "sensor_msgs::msg::dds_::JointState_"

@@ -136,6 +136,98 @@ ros_message!(
     ]
 );
 
+/// `geometry_msgs/Point`: a position (m).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Point {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// z (m).
+    pub z: f64,
+}
+
+ros_message!(
+    Point,
+    "geometry_msgs::msg::dds_::Point_",
+    "geometry_msgs/msg/Point",
+    [("x", "float64"), ("y", "float64"), ("z", "float64")]
+);
+
+/// `geometry_msgs/Quaternion`: an orientation `x i + y j + z k + w`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Quaternion {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+    /// w (1 in the identity, ROS's default).
+    pub w: f64,
+}
+
+impl Default for Quaternion {
+    fn default() -> Self {
+        Self {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        }
+    }
+}
+
+ros_message!(
+    Quaternion,
+    "geometry_msgs::msg::dds_::Quaternion_",
+    "geometry_msgs/msg/Quaternion",
+    [
+        ("x", "float64"),
+        ("y", "float64"),
+        ("z", "float64"),
+        ("w", "float64"),
+    ]
+);
+
+/// `geometry_msgs/Pose`: a position and an orientation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// Position (m).
+    pub position: Point,
+    /// Orientation.
+    pub orientation: Quaternion,
+}
+
+ros_message!(
+    Pose,
+    "geometry_msgs::msg::dds_::Pose_",
+    "geometry_msgs/msg/Pose",
+    [
+        ("position", "geometry_msgs/Point"),
+        ("orientation", "geometry_msgs/Quaternion"),
+    ]
+);
+
+/// `geometry_msgs/PoseStamped`: a pose in a frame at a time (e.g. a perceived object).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PoseStamped {
+    /// Stamp and frame of the pose.
+    pub header: Header,
+    /// The pose.
+    pub pose: Pose,
+}
+
+ros_message!(
+    PoseStamped,
+    "geometry_msgs::msg::dds_::PoseStamped_",
+    "geometry_msgs/msg/PoseStamped",
+    [
+        ("header", "std_msgs/Header"),
+        ("pose", "geometry_msgs/Pose")
+    ]
+);
+
 /// `std_msgs/MultiArrayDimension`: one dimension of a multi-array layout.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct MultiArrayDimension {

@@ -103,6 +103,9 @@ pub struct NodeConfig {
     /// node's path instead of restarting from the measured state (its default). False: one
     /// point, reached after `period_s`.
     pub trajectory_start_point: bool,
+    /// `[node.task_pose]`: conditions also from an observed object pose (a perception
+    /// node's `geometry_msgs/PoseStamped`); absent: from `symmetry_condition` only.
+    pub task_pose: Option<super::task_pose::TaskPoseConfig>,
 }
 
 impl Default for NodeConfig {
@@ -124,6 +127,7 @@ impl Default for NodeConfig {
             log_level: crate::Severity::Info,
             realtime: None,
             trajectory_start_point: true,
+            task_pose: None,
         }
     }
 }
@@ -205,6 +209,10 @@ impl NodeConfig {
             .map_err(|m| bad("default_condition", m.to_string()))?;
         if let Some(r) = &self.realtime {
             r.validate().map_err(|e| bad("realtime", e.to_string()))?;
+        }
+        if let Some(p) = &self.task_pose {
+            super::task_pose::TaskPoseMap::new(p.clone())
+                .map_err(|e| bad("task_pose", e.to_string()))?;
         }
         Ok(())
     }

@@ -38,6 +38,7 @@ mod gate;
 mod rejection;
 mod stage;
 mod status;
+mod task_pose;
 
 pub use self::command::Command;
 pub use self::config::{NodeConfig, OutputMode, TopicNames, Trigger};
@@ -48,3 +49,6 @@ pub use self::gate::{InputGate, Inputs, SHUTDOWN_SEQUENCE_BIT};
 pub use self::rejection::Rejection;
 pub use self::stage::{OutputStage, PolicyOutput};
 pub use self::status::{StatusCode, StatusSnapshot, TickReport};
+pub use self::task_pose::{
+    PoseCondition, PoseRejection, TaskPoseConfig, TaskPoseConfigError, TaskPoseMap,
+};

@@ -4,7 +4,8 @@
 //! types (comment-free, fully qualified field types) are written here.
 
 use crate::msg::{
-    Float64MultiArray, JointState, JointTrajectory, RosMessage, Status, SymmetryCondition,
+    Float64MultiArray, JointState, JointTrajectory, PoseStamped, RosMessage, Status,
+    SymmetryCondition,
 };
 
 const TIME: &str = "int32 sec\nuint32 nanosec\n";
@@ -17,6 +18,10 @@ const FLOAT64_MULTI_ARRAY: &str = "std_msgs/MultiArrayLayout layout\nfloat64[] d
 const JOINT_TRAJECTORY_POINT: &str = "float64[] positions\nfloat64[] velocities\nfloat64[] accelerations\nfloat64[] effort\nbuiltin_interfaces/Duration time_from_start\n";
 const JOINT_TRAJECTORY: &str =
     "std_msgs/Header header\nstring[] joint_names\ntrajectory_msgs/JointTrajectoryPoint[] points\n";
+const POINT: &str = "float64 x\nfloat64 y\nfloat64 z\n";
+const QUATERNION: &str = "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
+const POSE: &str = "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n";
+const POSE_STAMPED: &str = "std_msgs/Header header\ngeometry_msgs/Pose pose\n";
 const SYMMETRY_CONDITION: &str = include_str!("../../../../msgs/msg/SymmetryCondition.msg");
 const STATUS: &str = include_str!("../../../../msgs/msg/Status.msg");
 
@@ -52,6 +57,17 @@ const TABLE: &[(&str, &str, &[Dep])] = &[
                 JOINT_TRAJECTORY_POINT,
             ),
             ("builtin_interfaces/Duration", DURATION),
+        ],
+    ),
+    (
+        PoseStamped::ROS_TYPE,
+        POSE_STAMPED,
+        &[
+            ("std_msgs/Header", HEADER),
+            ("builtin_interfaces/Time", TIME),
+            ("geometry_msgs/Pose", POSE),
+            ("geometry_msgs/Point", POINT),
+            ("geometry_msgs/Quaternion", QUATERNION),
         ],
     ),
     (

@@ -34,13 +34,16 @@ use super::record::{RecordItem, Recorder};
 use super::stats::{span_us, Histogram, TickStats};
 use super::Endpoints;
 use crate::dds;
-use crossym_control::node::{Command, NodeCore, Rejection, StatusSnapshot, Trigger};
+use crossym_control::node::{
+    Command, NodeCore, PoseRejection, Rejection, StatusSnapshot, TaskPoseMap, Trigger,
+};
 use crossym_io::msg;
 use crossym_math::symmetry::compose::Condition;
 
 const JOINT_STATES: Token = Token(0);
 const CONDITIONS: Token = Token(1);
 const WAKE: Token = Token(2);
+const POSES: Token = Token(3);
 /// Messages taken from one subscription before the tick is considered again (a flood of
 /// messages cannot starve the tick).
 const MAX_READS: usize = 64;
@@ -60,6 +63,15 @@ pub(super) enum ToIo {
     },
     /// A new condition was accepted.
     ConditionAccepted(Condition),
+    /// A task pose gave no condition.
+    PoseRejected(PoseRejection),
+    /// The conditions now come from the other source (`true`: the task pose).
+    ConditionSource {
+        /// From the task pose (else from `symmetry_condition`).
+        from_pose: bool,
+        /// The pose's tilt out of the rotation's plane (rad), when from the pose.
+        tilt: f64,
+    },
     /// A message could not be decoded.
     Undecodable {
         /// `joint_states` or `symmetry_condition`.
@@ -90,6 +102,10 @@ pub(super) struct ControlThread {
     links: Links,
     /// The condition last accepted (a change is logged once).
     accepted: Condition,
+    /// `[node.task_pose]`'s map from a pose to a condition.
+    pose_map: Option<TaskPoseMap>,
+    /// Whether the last condition came from a task pose (a switch is logged once).
+    from_pose: bool,
     /// Publisher's source stamp → DDS receive, per joint state (µs).
     dds_in: Histogram,
     /// DDS receive → taken by this thread, per joint state (µs).
@@ -113,6 +129,17 @@ impl ControlThread {
             .register(&mut ends.joint_states, JOINT_STATES, Interest::READABLE)?;
         poll.registry()
             .register(&mut ends.conditions, CONDITIONS, Interest::READABLE)?;
+        if let Some(p) = ends.poses.as_mut() {
+            poll.registry().register(p, POSES, Interest::READABLE)?;
+        }
+        // Checked by `NodeConfig::validate` already.
+        let pose_map = core
+            .config()
+            .task_pose
+            .clone()
+            .map(TaskPoseMap::new)
+            .transpose()
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
         let waker = Arc::new(Waker::new(poll.registry(), WAKE)?);
         let accepted = core.condition();
         Ok((
@@ -123,6 +150,8 @@ impl ControlThread {
                 events: Events::with_capacity(16),
                 links,
                 accepted,
+                pose_map,
+                from_pose: false,
                 dds_in: Histogram::new(),
                 to_control: Histogram::new(),
                 tick: Histogram::new(),
@@ -243,7 +272,16 @@ impl ControlThread {
             left.1 = true;
             for _ in 0..MAX_READS {
                 match self.ends.conditions.take() {
-                    Ok(Some((m, _))) => self.on_condition(m),
+                    Ok(Some((m, _))) => {
+                        if self.from_pose {
+                            self.from_pose = false;
+                            self.tell(ToIo::ConditionSource {
+                                from_pose: false,
+                                tilt: 0.0,
+                            });
+                        }
+                        self.on_condition(m)
+                    }
                     Ok(None) => {
                         left.1 = false;
                         break;
@@ -254,8 +292,59 @@ impl ControlThread {
                     }),
                 }
             }
+            // The task poses count as condition news too (one flag: either source).
+            if self.read_poses() {
+                left.1 = true;
+            }
         }
         left
+    }
+
+    /// Takes the waiting task poses; true when more than [`MAX_READS`] were waiting.
+    fn read_poses(&mut self) -> bool {
+        for _ in 0..MAX_READS {
+            let taken = match self.ends.poses.as_ref() {
+                Some(sub) => sub.take(),
+                None => return false,
+            };
+            match taken {
+                Ok(Some((m, _))) => self.on_task_pose(m),
+                Ok(None) => return false,
+                Err(e) => self.tell(ToIo::Undecodable {
+                    topic: "task_pose",
+                    error: format!("{e:?}"),
+                }),
+            }
+        }
+        true
+    }
+
+    /// One task pose: mapped to a condition, which then goes the way of a condition
+    /// message (validated by the gate, recorded as one, so replay sees what drove the
+    /// node); the last source wins and a switch is logged.
+    fn on_task_pose(&mut self, m: msg::PoseStamped) {
+        let Some(map) = self.pose_map.as_ref() else {
+            return;
+        };
+        match map.condition(&m, dds::wall_time_s()) {
+            Ok(pc) => {
+                if !self.from_pose {
+                    self.from_pose = true;
+                    self.tell(ToIo::ConditionSource {
+                        from_pose: true,
+                        tilt: pc.tilt,
+                    });
+                }
+                let c = msg::SymmetryCondition {
+                    header: m.header,
+                    theta: pc.condition.theta,
+                    scale: pc.condition.scale,
+                    reflection: pc.condition.reflection,
+                };
+                self.on_condition(c);
+            }
+            Err(r) => self.tell(ToIo::PoseRejected(r)),
+        }
     }
 
     /// Waits for a message, the waker or `timeout`; returns which subscriptions have news.
@@ -283,7 +372,7 @@ impl ControlThread {
         for e in self.events.iter() {
             match e.token() {
                 JOINT_STATES => news.0 = true,
-                CONDITIONS => news.1 = true,
+                CONDITIONS | POSES => news.1 = true,
                 _ => {}
             }
         }

@@ -59,6 +59,22 @@ impl IoSide {
                     c.reflection
                 ),
             ),
+            ToIo::PoseRejected(r) => self.log.limited(
+                "task_pose",
+                Severity::Warn,
+                &format!("rejected task_pose (keeping the condition in force): {r}"),
+            ),
+            ToIo::ConditionSource { from_pose, tilt } => self.log.log(
+                Severity::Info,
+                &if from_pose {
+                    format!(
+                        "conditions now from the task pose (the last source wins; object tilt {:.1}° ignored)",
+                        tilt.to_degrees()
+                    )
+                } else {
+                    "conditions now from symmetry_condition (the last source wins)".to_string()
+                },
+            ),
             ToIo::Undecodable { topic, error } => self.log.limited(
                 "undecodable",
                 Severity::Warn,

@@ -212,6 +212,9 @@ fn node_options(core: &NodeCore) -> NodeOptions {
 struct Endpoints {
     joint_states: ros2_client::Subscription<msg::JointState>,
     conditions: ros2_client::Subscription<msg::SymmetryCondition>,
+    /// `[node.task_pose]`: the observed object's pose (best effort: matches reliable and
+    /// best-effort perception publishers).
+    poses: Option<ros2_client::Subscription<msg::PoseStamped>>,
     command: CommandPublisher,
     status: ros2_client::Publisher<msg::Status>,
 }
@@ -249,6 +252,14 @@ impl Endpoints {
                 &cfg.topics.symmetry_condition,
                 dds::qos_reliable(10),
             )?,
+            poses: match &cfg.task_pose {
+                Some(p) => Some(dds::subscription::<msg::PoseStamped>(
+                    node,
+                    &p.topic,
+                    dds::qos_sensor(),
+                )?),
+                None => None,
+            },
             command,
             status: dds::publisher::<msg::Status>(node, &cfg.topics.status, dds::qos_reliable(10))?,
         })
@@ -409,6 +420,16 @@ fn startup_summary(
                 .map_or("unbounded".into(), |d| format!("≥ {d} m"))
         ),
     ];
+    if let Some(p) = &cfg.task_pose {
+        lines.push(format!(
+            "conditions also from the object pose on {} (PoseStamped in `{}`, best effort; θ about {:?}, σ by the side of the mirror plane of {:?} on the object, λ = {}; the last source wins)",
+            topic(&p.topic),
+            p.frame,
+            p.axis,
+            p.side_point,
+            p.scale
+        ));
+    }
     if let Some(dir) = record {
         lines.push(format!("recording to {}", dir.display()));
     }
