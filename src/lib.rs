@@ -31,7 +31,7 @@
 
 pub use crossym_control as control;
 pub use crossym_control::safety;
-pub use crossym_io::{bag, msg, msgdef};
+pub use crossym_io::{bag, lerobot, msg, msgdef};
 pub use crossym_learn::{data, eval, policy};
 pub use crossym_math::{kinematics, symmetry};
 pub use crossym_ros as ros;

@@ -120,7 +120,7 @@ pub fn run(a: &DemosArgs) -> anyhow::Result<ExitCode> {
             };
             let start = match &s.detail {
                 SourceDetail::Recorded(r) => format!(" from t = {:.2} s", r.starts_s[k]),
-                SourceDetail::Tracked { .. } => String::new(),
+                SourceDetail::Tracked { .. } | SourceDetail::Episodes(_) => String::new(),
             };
             let (peak, margin) = peak_and_margin(d, kin.limits());
             println!(
@@ -145,6 +145,15 @@ pub fn run(a: &DemosArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// `; N samples OUTSIDE the joint limits`, or nothing.
+fn outside(samples: usize) -> String {
+    if samples > 0 {
+        format!("; {samples} samples OUTSIDE the joint limits")
+    } else {
+        String::new()
+    }
 }
 
 /// One source's report line (and its ignored joints).
@@ -172,14 +181,39 @@ fn print_source(s: &SourceDemos) {
                 if rep.segments == 1 { "" } else { "s" },
                 rep.trimmed_s.0,
                 rep.trimmed_s.1,
-                if rep.outside_limits > 0 {
-                    format!("; {} samples OUTSIDE the joint limits", rep.outside_limits)
-                } else {
-                    String::new()
-                }
+                outside(rep.outside_limits)
             );
             if !r.ignored.is_empty() {
                 println!("  ignored joints: {}", r.ignored.join(", "));
+            }
+        }
+        SourceDetail::Episodes(eps) => {
+            println!(
+                "{} ({}): {} episode{} → {} demonstration{}",
+                s.name,
+                s.kind.label(),
+                eps.len(),
+                if eps.len() == 1 { "" } else { "s" },
+                s.demos.len(),
+                if s.demos.len() == 1 { "" } else { "s" },
+            );
+            for (index, r) in eps {
+                let rep = &r.report;
+                println!(
+                    "  episode {index} ({}): {} frames over {:.2} s, largest stamp step {:.1} ms, idle trimmed {:.2} s / {:.2} s{}",
+                    r.file.display(),
+                    r.raw.0,
+                    r.raw.1,
+                    rep.max_gap_s * 1e3,
+                    rep.trimmed_s.0,
+                    rep.trimmed_s.1,
+                    outside(rep.outside_limits)
+                );
+            }
+            if let Some((_, r)) = eps.first() {
+                if !r.ignored.is_empty() {
+                    println!("  ignored state names: {}", r.ignored.join(", "));
+                }
             }
         }
     }

@@ -41,6 +41,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+import pyarrow, pyarrow.parquet
 PYEOF
 then
     echo "tests/bags/install.sh: FAILED: the bag tools do not import (see above)" >&2

@@ -268,6 +268,16 @@ impl Drop for Proc {
     }
 }
 
+/// True when `python3` imports `module`.
+pub fn python_has(module: &str) -> bool {
+    std::process::Command::new("python3")
+        .args(["-c", &format!("import {module}")])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
 /// True when PyPI `cyclonedds` (the independent DDS peer's library) imports.
 pub fn python_has_cyclonedds() -> bool {
     std::process::Command::new("python3")

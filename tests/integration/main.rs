@@ -15,6 +15,7 @@ mod equivariant_node;
 mod eval;
 mod faults;
 mod kinematics;
+mod lerobot;
 mod lift_compose;
 mod morpho_robots;
 mod operator;

@@ -11,6 +11,7 @@
 #![warn(missing_docs)]
 
 pub mod bag;
+pub mod lerobot;
 pub mod msg;
 pub mod msgdef;
 

@@ -21,6 +21,19 @@ pub enum SourceKind {
     Bag,
     /// A CSV file of joint positions or task positions.
     Csv,
+    /// A LeRobot dataset (`LeRobotDataset` v3.0 or v2.1): one demonstration per episode.
+    Lerobot,
+}
+
+/// The unit of a LeRobot dataset's revolute joint positions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AngleUnit {
+    /// Radians (the default; what ROS and crossym use).
+    #[default]
+    Rad,
+    /// Degrees (converted to radians on reading; prismatic joints stay in m).
+    Deg,
 }
 
 impl SourceKind {
@@ -31,6 +44,7 @@ impl SourceKind {
             Self::Reach => "reach",
             Self::Bag => "bag",
             Self::Csv => "csv",
+            Self::Lerobot => "lerobot",
         }
     }
 }
@@ -79,6 +93,22 @@ pub struct SourceConfig {
     /// `csv` with task columns: the joint posture tracking starts from (rad, every joint).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start: Option<Vec<f64>>,
+    /// `lerobot`: the dataset directory (holding `meta/info.json`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<PathBuf>,
+    /// `lerobot`: the state feature, a list whose `names` are joints (default
+    /// `observation.state`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state: Option<String>,
+    /// `lerobot`: one scalar feature per joint instead of a list (e.g. `right_arm_0.pos`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub features: Option<Vec<String>>,
+    /// `lerobot`: the episodes to read (`episode_index`); default all.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub episodes: Option<Vec<i64>>,
+    /// `lerobot`: the unit of revolute joint positions (default `rad`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub units: Option<AngleUnit>,
     /// `lasa` / `reach`: one entry per chain, in the robot's chain order.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub arms: Vec<ArmLetter>,
@@ -104,6 +134,8 @@ impl SourceConfig {
     pub fn resolved_kind(&self) -> Result<SourceKind, DemonstrationsConfigError> {
         let inferred = if self.bag.is_some() {
             Some(SourceKind::Bag)
+        } else if self.dataset.is_some() {
+            Some(SourceKind::Lerobot)
         } else if self.csv.is_some() {
             Some(SourceKind::Csv)
         } else if self.arms.iter().any(|a| a.letter.is_some()) {
@@ -142,6 +174,11 @@ impl SourceConfig {
         has(self.stamps.is_some(), "stamps", kind == Bag)?;
         has(self.csv.is_some(), "csv", kind == Csv)?;
         has(self.start.is_some(), "start", kind == Csv)?;
+        has(self.dataset.is_some(), "dataset", kind == Lerobot)?;
+        has(self.state.is_some(), "state", kind == Lerobot)?;
+        has(self.features.is_some(), "features", kind == Lerobot)?;
+        has(self.episodes.is_some(), "episodes", kind == Lerobot)?;
+        has(self.units.is_some(), "units", kind == Lerobot)?;
         has(!self.arms.is_empty(), "arms", matches!(kind, Lasa | Reach))?;
         has(self.half_range.is_some(), "half_range", kind == Lasa)?;
         has(self.tracking_damping.is_some(), "tracking_damping", tracked)?;
@@ -154,6 +191,7 @@ impl SourceConfig {
         let missing = match kind {
             Bag => self.bag.is_none().then_some("bag"),
             Csv => self.csv.is_none().then_some("csv"),
+            Lerobot => self.dataset.is_none().then_some("dataset"),
             Lasa | Reach => self.arms.is_empty().then_some("arms"),
         };
         if let Some(key) = missing {

@@ -21,6 +21,8 @@ pub enum SourceDetail {
     },
     /// A recording (or joint CSV) read and cleaned.
     Recorded(Recorded),
+    /// A LeRobot dataset: each episode read and cleaned (`episode_index`, what cleaning did).
+    Episodes(Vec<(i64, Recorded)>),
 }
 
 /// One source after loading.
@@ -211,6 +213,15 @@ fn load_source(
     kin: &Kinematics,
 ) -> Result<SourceDemos, String> {
     let kind = s.resolved_kind().map_err(|e| e.to_string())?;
+    if kind == SourceKind::Lerobot {
+        let (demos, episodes) = super::lerobot::load(cfg, s, resolve, kin)?;
+        return Ok(SourceDemos {
+            name: s.name.clone(),
+            kind,
+            demos,
+            detail: SourceDetail::Episodes(episodes),
+        });
+    }
     let (demos, detail) = match kind {
         SourceKind::Lasa | SourceKind::Reach => {
             let task = s.letter_task(kind, cfg.dt);
@@ -253,6 +264,7 @@ fn load_source(
                 }
             }
         }
+        SourceKind::Lerobot => unreachable!("read above"),
     };
     Ok(SourceDemos {
         name: s.name.clone(),

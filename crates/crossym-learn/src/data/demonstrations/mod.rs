@@ -25,6 +25,9 @@
 //!   configured joint (joint positions, cleaned like a recording) or `<chain>.x`,
 //!   `<chain>.y`(, `<chain>.z`) task columns sampled every `dt` (tracked from `start` like a
 //!   letter; chains without columns hold their `start`).
+//! - `lerobot` (`dataset`): a LeRobot dataset (v3.0 or v2.1), its state feature read by
+//!   joint name, one demonstration per episode named `name#<episode_index>`, cleaned like a
+//!   recording (`lerobot`).
 //!
 //! A source that yields one demonstration names it after itself; one that yields several
 //! (a LASA file, reaches, a recording split at idle periods) names them `name#1 … name#k`.
@@ -34,10 +37,13 @@
 
 pub mod config;
 mod csv;
+mod lerobot;
 pub mod load;
 
 #[cfg(test)]
 mod tests;
 
-pub use config::{DemonstrationsConfig, DemonstrationsConfigError, Pick, SourceConfig, SourceKind};
+pub use config::{
+    AngleUnit, DemonstrationsConfig, DemonstrationsConfigError, Pick, SourceConfig, SourceKind,
+};
 pub use load::{load_each, Demonstrations, SourceDemos, SourceDetail, SourceError};

@@ -1,0 +1,433 @@
+//! LeRobot datasets (the `LeRobotDataset` layout `lerobot-record` writes, RB-Y1's official
+//! data-collection path): per-episode joint-state time series read from the Parquet
+//! frames.
+//!
+//! Layout (LeRobot's documentation; versions `v3.0` and `v2.1`): `meta/info.json` with
+//! `codebase_version`, `fps` and `features` (`dtype`, `shape`, `names`); frames in Parquet
+//! under `data/` — `data/chunk-XXX/file-XXX.parquet` holding many episodes (v3.0) or one
+//! `data/chunk-XXX/episode_XXXXXX.parquet` per episode (v2.1) — with the columns
+//! `timestamp`, `frame_index`, `episode_index`, `index`, `task_index` and one per feature:
+//! a state as a fixed-length list whose elements `names` names, or one scalar column per
+//! named feature (`right_arm_0.pos`, …). Videos (MP4) are not read.
+//!
+//! Read here: every Parquet file under `data/` (both versions, any codec the writer used:
+//! snappy, zstd or none), rows grouped by `episode_index` and ordered by `frame_index`, the
+//! state's values as `f64` in the order of its names, time from `timestamp` (s). Refused,
+//! naming the file, the column and the problem: a missing or malformed `meta/info.json`,
+//! an unknown `codebase_version`, a state feature that is absent or whose shape does not
+//! match its names, a missing column, a non-finite value, timestamps that do not increase
+//! within an episode, frame indices with a gap, an unreadable (e.g. truncated) Parquet file.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use parquet::file::reader::FileReader;
+use parquet::file::serialized_reader::SerializedFileReader;
+use parquet::record::Field;
+
+/// Why a dataset was refused.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LeRobotError {
+    /// A file or directory cannot be read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// `meta/info.json` is missing or malformed, or does not describe the asked feature.
+    #[error("{}: {message}", path.display())]
+    Info {
+        /// `meta/info.json`.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A Parquet file cannot be read (truncated, corrupt, not Parquet).
+    #[error("{}: not a readable Parquet file: {message}", path.display())]
+    Parquet {
+        /// The file.
+        path: PathBuf,
+        /// The reader's description.
+        message: String,
+    },
+    /// A column is missing or holds a value that cannot be used.
+    #[error("{}: column `{column}`, row {row}: {message}", path.display())]
+    Column {
+        /// The Parquet file.
+        path: PathBuf,
+        /// The column.
+        column: String,
+        /// Row in the file (0-based).
+        row: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// An episode's frames are not a clean time series.
+    #[error("{}: episode {episode}: {message}", path.display())]
+    Episode {
+        /// The dataset.
+        path: PathBuf,
+        /// `episode_index`.
+        episode: i64,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// One episode: its frames' times and states.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Episode {
+    /// `episode_index`.
+    pub index: i64,
+    /// `task_index` of its first frame.
+    pub task_index: i64,
+    /// The Parquet file(s) it was read from (the first).
+    pub file: PathBuf,
+    /// `timestamp` of each frame (s).
+    pub t: Vec<f64>,
+    /// States, row-major `len × names.len()`.
+    pub state: Vec<f64>,
+}
+
+/// A dataset's state feature, episode by episode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LeRobotStates {
+    /// The dataset directory.
+    pub dir: PathBuf,
+    /// `codebase_version`.
+    pub version: String,
+    /// `fps`.
+    pub fps: f64,
+    /// Names of the state's elements (the column order of [`Episode::state`]).
+    pub names: Vec<String>,
+    /// Episodes in `episode_index` order.
+    pub episodes: Vec<Episode>,
+}
+
+/// One frame as read, before its episode is assembled.
+struct Frame {
+    /// `frame_index`.
+    index: i64,
+    /// `timestamp` (s).
+    t: f64,
+    /// `task_index`.
+    task: i64,
+    /// The state's values.
+    state: Vec<f64>,
+    /// Index of the file it came from.
+    file: usize,
+}
+
+/// How the state is stored: one list column, or one scalar column per name.
+enum StateColumns {
+    List(String),
+    Scalars(Vec<String>),
+}
+
+/// The names of a feature: a list of strings, or an object holding one such list (older
+/// datasets: `{"motors": [...]}`).
+fn feature_names(v: &serde_json::Value) -> Option<Vec<String>> {
+    let list = match v {
+        serde_json::Value::Array(a) => a,
+        serde_json::Value::Object(o) if o.len() == 1 => o.values().next()?.as_array()?,
+        _ => return None,
+    };
+    list.iter().map(|x| x.as_str().map(String::from)).collect()
+}
+
+/// Reads the state of `dir`: the feature `state` (a list feature with `names`), or, when
+/// `state` names no feature, the scalar features listed in `scalars` (e.g.
+/// `right_arm_0.pos`), each its own column.
+pub fn read_states(
+    dir: &Path,
+    state: &str,
+    scalars: &[String],
+) -> Result<LeRobotStates, LeRobotError> {
+    let info_path = dir.join("meta/info.json");
+    let info_err = |message: String| LeRobotError::Info {
+        path: info_path.clone(),
+        message,
+    };
+    let text = std::fs::read_to_string(&info_path).map_err(|source| {
+        if source.kind() == std::io::ErrorKind::NotFound {
+            info_err(
+                "missing: not a LeRobot dataset (expected meta/info.json in the directory)".into(),
+            )
+        } else {
+            LeRobotError::Io {
+                path: info_path.clone(),
+                source,
+            }
+        }
+    })?;
+    let info: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| info_err(format!("not JSON: {e}")))?;
+    let version = info["codebase_version"]
+        .as_str()
+        .ok_or_else(|| info_err("no `codebase_version`".into()))?
+        .to_string();
+    if version != "v3.0" && version != "v2.1" {
+        return Err(info_err(format!(
+            "codebase_version `{version}` is not supported (v3.0 and v2.1 are)"
+        )));
+    }
+    let fps = info["fps"]
+        .as_f64()
+        .filter(|f| f.is_finite() && *f > 0.0)
+        .ok_or_else(|| info_err("`fps` is not a positive number".into()))?;
+    let features = info["features"]
+        .as_object()
+        .ok_or_else(|| info_err("no `features` object".into()))?;
+    let (columns, names) = match features.get(state) {
+        Some(f) => {
+            let names = feature_names(&f["names"])
+                .ok_or_else(|| info_err(format!("feature `{state}` has no list of `names`")))?;
+            let shape: Vec<u64> = f["shape"]
+                .as_array()
+                .map(|a| a.iter().filter_map(|x| x.as_u64()).collect())
+                .unwrap_or_default();
+            if shape != [names.len() as u64] {
+                return Err(info_err(format!(
+                    "feature `{state}` has shape {:?} but {} names",
+                    f["shape"],
+                    names.len()
+                )));
+            }
+            (StateColumns::List(state.to_string()), names)
+        }
+        None if !scalars.is_empty() => {
+            for c in scalars {
+                let f = features
+                    .get(c)
+                    .ok_or_else(|| info_err(format!("no feature `{c}`")))?;
+                let shape = f["shape"].as_array().map(|a| a.len()).unwrap_or(0);
+                if shape != 1 || f["shape"][0].as_u64() != Some(1) {
+                    return Err(info_err(format!(
+                        "feature `{c}` has shape {:?}, not [1] (a scalar per frame)",
+                        f["shape"]
+                    )));
+                }
+            }
+            (StateColumns::Scalars(scalars.to_vec()), scalars.to_vec())
+        }
+        None => {
+            return Err(info_err(format!(
+                "no feature `{state}` (features: {})",
+                features.keys().cloned().collect::<Vec<_>>().join(", ")
+            )))
+        }
+    };
+    let mut files = Vec::new();
+    parquet_files(&dir.join("data"), &mut files)?;
+    if files.is_empty() {
+        return Err(info_err(format!(
+            "no Parquet file under {}",
+            dir.join("data").display()
+        )));
+    }
+    files.sort();
+    let mut frames: BTreeMap<i64, Vec<Frame>> = BTreeMap::new();
+    for (fi, file) in files.iter().enumerate() {
+        read_file(file, &columns, names.len(), |ep, frame, t, task, st| {
+            frames.entry(ep).or_default().push(Frame {
+                index: frame,
+                t,
+                task,
+                state: st,
+                file: fi,
+            });
+        })?;
+    }
+    let mut episodes = Vec::with_capacity(frames.len());
+    for (index, mut rows) in frames {
+        rows.sort_by_key(|r| r.index);
+        let bad = |message: String| LeRobotError::Episode {
+            path: dir.to_path_buf(),
+            episode: index,
+            message,
+        };
+        for (k, w) in rows.windows(2).enumerate() {
+            if w[1].index != w[0].index + 1 {
+                return Err(bad(format!(
+                    "frame_index jumps from {} to {} (frames missing or repeated)",
+                    w[0].index, w[1].index
+                )));
+            }
+            if w[1].t <= w[0].t {
+                return Err(bad(format!(
+                    "timestamp of frame {} ({} s) is not after frame {}'s ({} s)",
+                    k + 1,
+                    w[1].t,
+                    k,
+                    w[0].t
+                )));
+            }
+        }
+        let n = names.len();
+        let mut state = Vec::with_capacity(rows.len() * n);
+        let mut t = Vec::with_capacity(rows.len());
+        for r in &rows {
+            t.push(r.t);
+            state.extend_from_slice(&r.state);
+        }
+        episodes.push(Episode {
+            index,
+            task_index: rows[0].task,
+            file: files[rows[0].file].clone(),
+            t,
+            state,
+        });
+    }
+    Ok(LeRobotStates {
+        dir: dir.to_path_buf(),
+        version,
+        fps,
+        names,
+        episodes,
+    })
+}
+
+/// Every `.parquet` file below `dir`.
+fn parquet_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), LeRobotError> {
+    let rd = std::fs::read_dir(dir).map_err(|source| LeRobotError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    for e in rd {
+        let p = e
+            .map_err(|source| LeRobotError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?
+            .path();
+        if p.is_dir() {
+            parquet_files(&p, out)?;
+        } else if p.extension().is_some_and(|x| x == "parquet") {
+            out.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// A number of a frame's column as `f64` (floats and integers).
+fn number(f: &Field) -> Option<f64> {
+    Some(match f {
+        Field::Float(x) => f64::from(*x),
+        Field::Double(x) => *x,
+        Field::Int(x) => f64::from(*x),
+        Field::Long(x) => *x as f64,
+        Field::Short(x) => f64::from(*x),
+        Field::Byte(x) => f64::from(*x),
+        Field::UInt(x) => f64::from(*x),
+        Field::ULong(x) => *x as f64,
+        _ => return None,
+    })
+}
+
+/// Reads the frames of one Parquet file, calling `row(episode, frame, t, task, state)`.
+fn read_file(
+    path: &Path,
+    columns: &StateColumns,
+    n: usize,
+    mut row: impl FnMut(i64, i64, f64, i64, Vec<f64>),
+) -> Result<(), LeRobotError> {
+    let file = std::fs::File::open(path).map_err(|source| LeRobotError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let reader = SerializedFileReader::new(file).map_err(|e| LeRobotError::Parquet {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let rows = reader
+        .get_row_iter(None)
+        .map_err(|e| LeRobotError::Parquet {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    for (k, r) in rows.enumerate() {
+        let r = r.map_err(|e| LeRobotError::Parquet {
+            path: path.to_path_buf(),
+            message: format!("row {k}: {e}"),
+        })?;
+        let col_err = |column: &str, message: String| LeRobotError::Column {
+            path: path.to_path_buf(),
+            column: column.to_string(),
+            row: k,
+            message,
+        };
+        let get = |name: &str| -> Option<&Field> {
+            r.get_column_iter()
+                .find(|(c, _)| c.as_str() == name)
+                .map(|(_, f)| f)
+        };
+        let int = |name: &str, f: Option<&Field>| -> Result<i64, LeRobotError> {
+            match f {
+                Some(Field::Long(x)) => Ok(*x),
+                Some(Field::Int(x)) => Ok(i64::from(*x)),
+                Some(other) => Err(col_err(name, format!("not an integer: {other}"))),
+                None => Err(col_err(name, "missing".into())),
+            }
+        };
+        let episode = int("episode_index", get("episode_index"))?;
+        let frame = int("frame_index", get("frame_index"))?;
+        let task = match get("task_index") {
+            None => 0,
+            f => int("task_index", f)?,
+        };
+        let t = get("timestamp")
+            .and_then(number)
+            .ok_or_else(|| col_err("timestamp", "missing or not a number".into()))?;
+        if !t.is_finite() {
+            return Err(col_err("timestamp", format!("{t} is not finite")));
+        }
+        let mut state = Vec::with_capacity(n);
+        match columns {
+            StateColumns::List(name) => {
+                let Some(Field::ListInternal(list)) = get(name) else {
+                    return Err(col_err(name, "missing or not a list".into()));
+                };
+                let el = list.elements();
+                if el.len() != n {
+                    return Err(col_err(
+                        name,
+                        format!("{} values, the feature names {n}", el.len()),
+                    ));
+                }
+                for (i, f) in el.iter().enumerate() {
+                    let v =
+                        number(f).ok_or_else(|| col_err(name, format!("element {i} is {f}")))?;
+                    state.push(v);
+                }
+            }
+            StateColumns::Scalars(names) => {
+                for name in names {
+                    let f = get(name).ok_or_else(|| col_err(name, "missing".into()))?;
+                    let v = match f {
+                        Field::ListInternal(l) if l.elements().len() == 1 => {
+                            number(&l.elements()[0])
+                        }
+                        f => number(f),
+                    }
+                    .ok_or_else(|| col_err(name, format!("not a number: {f}")))?;
+                    state.push(v);
+                }
+            }
+        }
+        if let Some(i) = state.iter().position(|v| !v.is_finite()) {
+            let column = match columns {
+                StateColumns::List(c) => c.clone(),
+                StateColumns::Scalars(c) => c[i].clone(),
+            };
+            return Err(col_err(
+                &column,
+                format!("element {i} is {} (not finite)", state[i]),
+            ));
+        }
+        row(episode, frame, t, task, state);
+    }
+    Ok(())
+}
