@@ -15,6 +15,7 @@ mod demos;
 mod density;
 mod endurance;
 mod eval;
+mod export_lerobot;
 mod info;
 mod mock_hw;
 mod node;
@@ -75,6 +76,9 @@ enum Command {
     /// The augmentation-density experiment: π_R trained per rotation step Δθ, RMSE against
     /// the test rotation θ (CSV, Markdown and a PNG of the curves).
     Density(density::DensityArgs),
+    /// Write the configured demonstrations as a LeRobotDataset (v3.0): one episode per
+    /// demonstration, `observation.state` named by joint, for the LeRobot tools.
+    ExportLerobot(export_lerobot::ExportLerobotArgs),
     /// Recorded demonstrations of [demonstrations] (rosbag2 bags, MCAP or SQLite3): read by
     /// joint name, resampled, differentiated, idle trimmed; a report per source and figures.
     /// Exits 1 when a source was refused.
@@ -125,6 +129,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Symmetries(a) => symmetries::run(a),
         Command::Density(a) => density::run(a),
         Command::Demos(a) => demos::run(a),
+        Command::ExportLerobot(a) => export_lerobot::run(a),
         Command::Node(a) => node::run(a),
         Command::Record(a) => record::run(a),
         Command::Bag(a) => bag::run(a),

@@ -17,6 +17,12 @@
 //! an unknown `codebase_version`, a state feature that is absent or whose shape does not
 //! match its names, a missing column, a non-finite value, timestamps that do not increase
 //! within an episode, frame indices with a gap, an unreadable (e.g. truncated) Parquet file.
+//!
+//! [`write_dataset`] writes the other way (v3.0 layout, `write`).
+
+mod write;
+
+pub use write::{write_dataset, EpisodeFrames};
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
