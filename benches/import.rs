@@ -37,6 +37,7 @@ use crossym::config::Config;
 use crossym::data::clean::{clean, differentiate, resample, CleanConfig, CleanDemo};
 use crossym::data::recording::{open_joint_states, JointRecording, StampSource};
 use crossym::kinematics::JointLimits;
+use crossym::lerobot::{read_states, write_dataset, EpisodeFrames};
 use crossym::msg::{Header, JointState, Time};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -240,6 +241,9 @@ struct Fixture {
     messages: usize,
     /// Names per message (count).
     names: usize,
+    /// The same recordings as one LeRobotDataset (v3.0, one episode per recording, the
+    /// state named by every movable joint, float64; crossym's writer).
+    lerobot: PathBuf,
 }
 
 impl Drop for Fixture {
@@ -274,7 +278,9 @@ fn write_fixture(joints: &[JointSpec], bags: usize, count: usize) -> anyhow::Res
         storages: vec![("mcap", Vec::new()), ("sqlite3", Vec::new())],
         messages: bags * count,
         names: joints.len(),
+        lerobot: dir.join("lerobot"),
     };
+    let mut episodes: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
     for b in 0..bags {
         let msgs = recording_messages(joints, b as u64, count);
         let m = dir.join(format!("mcap/demo_{b:02}"));
@@ -284,8 +290,70 @@ fn write_fixture(joints: &[JointSpec], bags: usize, count: usize) -> anyhow::Res
         write_db3(&s, &msgs)?;
         fx.storages[0].1.push(m);
         fx.storages[1].1.push(s);
+        let (mut t, mut state) = (Vec::new(), Vec::new());
+        for (_, bytes) in &msgs {
+            let js: JointState = cdr::decode(bytes)?;
+            t.push(js.header.stamp.as_secs_f64());
+            state.extend_from_slice(&js.position);
+        }
+        episodes.push((t, state));
     }
+    let frames: Vec<EpisodeFrames<'_>> = episodes
+        .iter()
+        .map(|(t, state)| EpisodeFrames {
+            task_index: 0,
+            t,
+            state,
+        })
+        .collect();
+    let names: Vec<String> = joints.iter().map(|j| j.name.clone()).collect();
+    write_dataset(
+        &fx.lerobot,
+        1e9 / PERIOD_NS as f64,
+        &names,
+        &["bench".to_string()],
+        &frames,
+    )?;
     Ok(fx)
+}
+
+/// The LeRobot import: the dataset read, each episode's state mapped to the configured
+/// joints by name, then cleaned as a recording; also returns the read time (s).
+fn import_lerobot(
+    dir: &Path,
+    joints: &[String],
+    cfg: &CleanConfig,
+    limits: &[JointLimits],
+) -> (Vec<CleanDemo>, f64) {
+    let t0 = Instant::now();
+    let data = read_states(dir, "observation.state", &[]).expect("dataset reads");
+    let cols: Vec<usize> = joints
+        .iter()
+        .map(|j| data.names.iter().position(|n| n == j).expect("joint named"))
+        .collect();
+    let w = data.names.len();
+    let recs: Vec<JointRecording> = data
+        .episodes
+        .iter()
+        .map(|e| JointRecording {
+            bag: e.file.clone(),
+            topic: format!("episode {}", e.index),
+            joints: joints.to_vec(),
+            t: e.t.iter().map(|t| t - e.t[0]).collect(),
+            start_ns: 0,
+            q: e.state
+                .chunks(w)
+                .flat_map(|row| cols.iter().map(|&c| row[c]))
+                .collect(),
+            ignored: Vec::new(),
+        })
+        .collect();
+    let read = t0.elapsed().as_secs_f64();
+    let mut demos = Vec::new();
+    for r in &recs {
+        demos.extend(clean(r, DT, cfg, Some(limits)).expect("episode cleans").0);
+    }
+    (demos, read)
 }
 
 /// The import under test: every bag read and cleaned into demonstrations.
@@ -456,4 +524,23 @@ fn main() {
             if total <= 3.0 { "yes" } else { "no" }
         );
     }
+    // The same frames as a LeRobotDataset (one Parquet file, float64 lists).
+    let (mut total, mut read) = (Vec::new(), Vec::new());
+    let mut n_demos = 0;
+    for _ in 0..3 {
+        let t0 = Instant::now();
+        let (d, r) = import_lerobot(&fx.lerobot, &joints, &cfg, &limits);
+        total.push(t0.elapsed().as_secs_f64());
+        read.push(r);
+        n_demos = black_box(d).len();
+    }
+    let (t, r) = (median(total), median(read));
+    println!(
+        "  lerobot: {} frames in {t:.3} s = read {r:.3} s + clean {:.4} s; {:.0} frames/s; \
+         {n_demos} demonstrations; ≤ 3 s: {}",
+        fx.messages,
+        t - r,
+        fx.messages as f64 / t,
+        if t <= 3.0 { "yes" } else { "no" }
+    );
 }

@@ -228,6 +228,34 @@ fn a_lerobot_source_teaches_rby1_episodes() {
         one.contains("1 episode → 1 demonstration") && one.contains(" lr#2: "),
         "{one}"
     );
+    // `task` picks by the task string (v3.0: meta/tasks.parquet; v2.1: meta/tasks.jsonl).
+    let pan = common::run_ok(
+        common::crossym(["demos", "--config"]).arg(cfg(&rad, "task = \"grasp the pan\"")),
+    );
+    assert!(
+        pan.contains("1 episode → 1 demonstration") && pan.contains(" lr#1: "),
+        "{pan}"
+    );
+    let letters = common::run_ok(
+        common::crossym(["demos", "--config"])
+            .arg(cfg(&deg, "units = \"deg\"\ntask = \"draw the letters\"")),
+    );
+    assert!(
+        letters.contains("2 episodes → 2 demonstrations")
+            && letters.contains(" lr#0: ")
+            && letters.contains(" lr#2: "),
+        "{letters}"
+    );
+    let unknown = common::crossym(["demos", "--config"])
+        .arg(cfg(&rad, "task = \"fold the towel\""))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&unknown.stdout);
+    assert!(!unknown.status.success());
+    assert!(
+        text.contains("no task `fold the towel`") && text.contains("`grasp the pan`"),
+        "{text}"
+    );
     let in_deg =
         common::run_ok(common::crossym(["demos", "--config"]).arg(cfg(&deg, "units = \"deg\"")));
     let lines = |s: &str| -> Vec<String> {

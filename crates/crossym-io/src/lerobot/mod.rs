@@ -296,6 +296,85 @@ pub fn read_states(
     })
 }
 
+/// The tasks of the dataset `dir`: `(task_index, task)`, from `meta/tasks.parquet` (v3.0:
+/// columns `task_index` and the task string, named `task` or, as pandas writes a
+/// DataFrame's index, `__index_level_0__`) or `meta/tasks.jsonl` (v2.1).
+pub fn read_tasks(dir: &Path) -> Result<Vec<(i64, String)>, LeRobotError> {
+    let jsonl = dir.join("meta/tasks.jsonl");
+    if jsonl.exists() {
+        let text = std::fs::read_to_string(&jsonl).map_err(|source| LeRobotError::Io {
+            path: jsonl.clone(),
+            source,
+        })?;
+        return text
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .enumerate()
+            .map(|(k, l)| {
+                let v: serde_json::Value =
+                    serde_json::from_str(l).map_err(|e| LeRobotError::Column {
+                        path: jsonl.clone(),
+                        column: "task".into(),
+                        row: k,
+                        message: format!("not JSON: {e}"),
+                    })?;
+                match (v["task_index"].as_i64(), v["task"].as_str()) {
+                    (Some(i), Some(t)) => Ok((i, t.to_string())),
+                    _ => Err(LeRobotError::Column {
+                        path: jsonl.clone(),
+                        column: "task".into(),
+                        row: k,
+                        message: "needs `task_index` and `task`".into(),
+                    }),
+                }
+            })
+            .collect();
+    }
+    let path = dir.join("meta/tasks.parquet");
+    let file = std::fs::File::open(&path).map_err(|source| LeRobotError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    let reader = SerializedFileReader::new(file).map_err(|e| LeRobotError::Parquet {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    let rows = reader
+        .get_row_iter(None)
+        .map_err(|e| LeRobotError::Parquet {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+    let mut tasks = Vec::new();
+    for (k, r) in rows.enumerate() {
+        let r = r.map_err(|e| LeRobotError::Parquet {
+            path: path.clone(),
+            message: format!("row {k}: {e}"),
+        })?;
+        let (mut index, mut task) = (None, None);
+        for (name, f) in r.get_column_iter() {
+            match (name.as_str(), f) {
+                ("task_index", Field::Long(i)) => index = Some(*i),
+                ("task_index", Field::Int(i)) => index = Some(i64::from(*i)),
+                ("task" | "__index_level_0__", Field::Str(t)) => task = Some(t.clone()),
+                _ => {}
+            }
+        }
+        match (index, task) {
+            (Some(i), Some(t)) => tasks.push((i, t)),
+            _ => {
+                return Err(LeRobotError::Column {
+                    path: path.clone(),
+                    column: "task".into(),
+                    row: k,
+                    message: "needs `task_index` and a task string".into(),
+                })
+            }
+        }
+    }
+    Ok(tasks)
+}
+
 /// Every `.parquet` file below `dir`.
 fn parquet_files(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), LeRobotError> {
     let rd = std::fs::read_dir(dir).map_err(|source| LeRobotError::Io {

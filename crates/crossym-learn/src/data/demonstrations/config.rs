@@ -106,6 +106,9 @@ pub struct SourceConfig {
     /// `lerobot`: the episodes to read (`episode_index`); default all.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub episodes: Option<Vec<i64>>,
+    /// `lerobot`: only the episodes of this task (the task string of `meta/tasks`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub task: Option<String>,
     /// `lerobot`: the unit of revolute joint positions (default `rad`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub units: Option<AngleUnit>,
@@ -179,6 +182,7 @@ impl SourceConfig {
         has(self.features.is_some(), "features", kind == Lerobot)?;
         has(self.episodes.is_some(), "episodes", kind == Lerobot)?;
         has(self.units.is_some(), "units", kind == Lerobot)?;
+        has(self.task.is_some(), "task", kind == Lerobot)?;
         has(!self.arms.is_empty(), "arms", matches!(kind, Lasa | Reach))?;
         has(self.half_range.is_some(), "half_range", kind == Lasa)?;
         has(self.tracking_damping.is_some(), "tracking_damping", tracked)?;

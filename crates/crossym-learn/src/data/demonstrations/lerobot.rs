@@ -5,7 +5,8 @@
 //! config does not control (grippers, torso, head) are ignored and listed; a controlled
 //! joint without a name is refused. Each episode is then cleaned as a recording
 //! ([`crate::data::clean`]: gap refusal, resampling to `dt`, velocities, idle trimming,
-//! limit margins), its time the frames' `timestamp`.
+//! limit margins), its time the frames' `timestamp`. `episodes` and `task` (a task string of
+//! `meta/tasks`) select episodes.
 
 use std::path::{Path, PathBuf};
 
@@ -13,7 +14,7 @@ use super::config::{AngleUnit, DemonstrationsConfig, SourceConfig};
 use crate::data::letters::JointTrajectory;
 use crate::data::recorded::{load_recording, Recorded};
 use crate::data::recording::JointRecording;
-use crossym_io::lerobot::read_states;
+use crossym_io::lerobot::{read_states, read_tasks};
 use crossym_math::kinematics::{JointKind, Kinematics};
 
 /// The named demonstrations of a source and what cleaning did to each episode.
@@ -84,11 +85,32 @@ pub(super) fn load(
             ));
         }
     }
+    // `task`: the episodes whose first frame has that task.
+    let task_index = match &s.task {
+        None => None,
+        Some(want) => {
+            let tasks = read_tasks(&dir).map_err(|e| e.to_string())?;
+            let found = tasks.iter().find(|(_, t)| t == want).map(|(i, _)| *i);
+            Some(found.ok_or_else(|| {
+                format!(
+                    "{}: no task `{want}` (tasks: {})",
+                    dir.display(),
+                    tasks
+                        .iter()
+                        .map(|(_, t)| format!("`{t}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })?)
+        }
+    };
     let width = data.names.len();
     let mut demos = Vec::new();
     let mut reports = Vec::new();
     for ep in &data.episodes {
-        if s.episodes.as_ref().is_some_and(|w| !w.contains(&ep.index)) {
+        if s.episodes.as_ref().is_some_and(|w| !w.contains(&ep.index))
+            || task_index.is_some_and(|t| t != ep.task_index)
+        {
             continue;
         }
         let t0 = ep.t[0];
