@@ -6,8 +6,9 @@
 //!    position` by an independent Cyclone DDS publisher (`tests/peer/teach_driver.py`)
 //!    while `crossym record` records `/joint_states` (`pick_1`, MCAP);
 //! 2. the same motion, with encoder noise and stamp jitter, is written by PyPI `rosbags`
-//!    as SQLite3 (`pick_2`, `pick_4`) and MCAP (`pick_3`) bags (`tests/bags/write_recording.py
-//!    --motion teach`);
+//!    as SQLite3 bags (`pick_2`, `pick_4`; `tests/bags/write_recording.py --motion teach`)
+//!    and by PyPI pyarrow as a LeRobot dataset (`pick_3`, v2.1, zstd;
+//!    `tests/lerobot/write_dataset.py --teach`);
 //! 3. `crossym demos` reads all four (exit 0), `crossym train` (a few hundred iterations)
 //!    learns π(q, s) from `pick_1..3` augmented with the reflection (identity + mirror);
 //! 4. `crossym node` drives a fresh `crossym mock-hw` (velocity commands) from the rest
@@ -232,9 +233,17 @@ fn write_config(dir: &Path, file: &str, reflection: i8) -> PathBuf {
     let urdf = common::path("urdf/planar_dual_arm.urdf");
     let robot = robot.replace("../urdf/planar_dual_arm.urdf", urdf.to_str().unwrap());
     assert!(robot.contains(urdf.to_str().unwrap()), "{robot}");
+    // pick_3 is a LeRobot dataset (the data path of LeRobot-recorded robots), the others
+    // rosbag2 bags: one schema teaches from both.
     let sources: String = ["pick_1", "pick_2", "pick_3", "pick_4"]
         .iter()
-        .map(|n| format!("[[demonstrations.sources]]\nname = \"{n}\"\nbag = \"{n}\"\ntopic = \"/joint_states\"\n\n"))
+        .map(|n| {
+            if *n == "pick_3" {
+                format!("[[demonstrations.sources]]\nname = \"{n}\"\ndataset = \"{n}\"\n\n")
+            } else {
+                format!("[[demonstrations.sources]]\nname = \"{n}\"\nbag = \"{n}\"\ntopic = \"/joint_states\"\n\n")
+            }
+        })
         .collect();
     let text = format!(
         r#"{robot}
@@ -379,11 +388,15 @@ fn record_demonstration(dir: &Path, cfg: &Path, script: &Script) {
 
 /// The same motion written by rosbags (noise 1e-4 rad, stamp jitter ±0.5 ms).
 fn write_with_rosbags(dir: &Path) {
-    for (name, storage, seed) in [
-        ("pick_2", "sqlite3", "2"),
-        ("pick_3", "mcap", "3"),
-        ("pick_4", "sqlite3", "4"),
-    ] {
+    // pick_3: the same motion as a LeRobot dataset written by pyarrow (v2.1, zstd).
+    common::run_ok(
+        Command::new("python3")
+            .arg(common::path("tests/lerobot/write_dataset.py"))
+            .arg(dir.join("pick_3"))
+            .args(["--version", "v2.1", "--compression", "zstd", "--teach"])
+            .args(["--noise", "1e-4", "--seed", "3"]),
+    );
+    for (name, storage, seed) in [("pick_2", "sqlite3", "2"), ("pick_4", "sqlite3", "4")] {
         common::run_ok(
             Command::new("python3")
                 .arg(common::path("tests/bags/write_recording.py"))
@@ -579,20 +592,22 @@ fn teach_from_recorded_demonstrations_and_reproduce_with_both_arms() {
     for (k, (name, file, role)) in [
         ("pick_1", ".mcap", "train"),
         ("pick_2", "pick_2.db3", "train"),
-        ("pick_3", "pick_3.mcap", "train"),
+        ("pick_3#0", "episode_000000.parquet", "train"),
         ("pick_4", "pick_4.db3", "test"),
     ]
     .into_iter()
     .enumerate()
     {
+        let (source, kind) = match name.split_once('#') {
+            Some((s, _)) => (s, "lerobot"),
+            None => (name, "bag"),
+        };
         let src = out
             .lines()
-            .find(|l| l.starts_with(&format!("{name} (bag): ")))
-            .unwrap_or_else(|| panic!("no line for {name}:\n{out}"));
-        assert!(
-            src.contains(file) && src.contains("→ 1 demonstration,"),
-            "{src}"
-        );
+            .find(|l| l.starts_with(&format!("{source} ({kind}): ")))
+            .unwrap_or_else(|| panic!("no line for {source}:\n{out}"));
+        assert!(src.contains("→ 1 demonstration"), "{src}");
+        assert!(out.contains(file), "{file} not reported:\n{out}");
         let demo = out
             .lines()
             .find(|l| l.trim_start().starts_with(&format!("{} {name}: ", k + 1)))

@@ -5,6 +5,7 @@ layout (independent of crossym; LeRobot's own writer needs torch, which CI does 
     python3 tests/lerobot/write_dataset.py OUT --version v3.0|v2.1 [--layout list|scalars]
         [--compression snappy|zstd|none] [--fault none|nan|backwards|gap|shape|version|noinfo|truncate]
         [--dump FILE.json] [--episodes 3] [--fps 50] [--seconds 4] [--degrees]
+        [--teach [--noise STD] [--seed N]]
 
 Content: `--episodes` episodes of a smooth motion of RB-Y1's two arms about the letter
 task's rest posture, two tasks (episode k has task k % 2), frames at `--fps`. The state is
@@ -25,6 +26,11 @@ before the previous frame's), gap (frames 40-49 missing), shape (info.json's sta
 one longer than its names), version (codebase_version v1.6), noinfo (no meta/info.json),
 truncate (the first data file cut to a third).
 
+--teach writes instead one episode of the planar dual arm's scripted teach motion
+(tests/tools/teach_motion.py, the one the bag teach test uses) at 100 fps over its duration,
+the state named by its eight joints among joints it does not control, with Gaussian encoder
+noise of --noise (rad, seeded by --seed).
+
 --dump writes, per episode, the episode index, the timestamps and the 14 arm joints' values
 (left_arm_0..6, right_arm_0..6) as float32 rounded, i.e. what a reader must return.
 """
@@ -34,9 +40,14 @@ import math
 import random
 from pathlib import Path
 
+import sys
+
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / 'tools'))
+import teach_motion  # noqa: E402  (tests/tools)
 
 ARMS = [f"left_arm_{i}" for i in range(7)] + [f"right_arm_{i}" for i in range(7)]
 EXTRA = ["torso_0", "torso_1", "head_0", "head_1", "gripper_left", "gripper_right"]
@@ -57,7 +68,12 @@ def main() -> int:
     ap.add_argument("--fps", type=int, default=50)
     ap.add_argument("--seconds", type=float, default=4.0)
     ap.add_argument("--degrees", action="store_true", help="store revolute positions in degrees")
+    ap.add_argument("--teach", action="store_true", help="the planar arms' scripted teach motion")
+    ap.add_argument("--noise", type=float, default=0.0)
+    ap.add_argument("--seed", type=int, default=7)
     args = ap.parse_args()
+    if args.teach:
+        return write_teach(args)
 
     rng = random.Random(7)
     names = ARMS + EXTRA
@@ -205,6 +221,58 @@ def main() -> int:
             })
         args.dump.write_text(json.dumps({"joints": ARMS, "names": names, "episodes": dump}))
     print(json.dumps({"dataset": str(out), "frames": index, "files": [str(p) for p in data_files]}))
+    return 0
+
+
+def write_teach(args) -> int:
+    """One episode of the teach motion (v3.0 or v2.1 layout, list state, float32)."""
+    fps = 100
+    extra = ["torso_joint", "head_pan", "gripper_left_finger", "gripper_right_finger"]
+    names = teach_motion.JOINTS + extra
+    random.Random(args.seed).shuffle(names)
+    noise = np.random.default_rng(args.seed)
+    frames = int(round(teach_motion.DURATION_S * fps)) + 1
+    ts, states = [], []
+    for k in range(frames):
+        t = k / fps
+        q = dict(zip(teach_motion.JOINTS, teach_motion.position(t)))
+        if args.noise > 0:
+            q = {j: v + float(noise.normal(0.0, args.noise)) for j, v in q.items()}
+        q.update({j: 0.1 * (i + 1) for i, j in enumerate(extra)})
+        ts.append(np.float32(t))
+        states.append(np.array([q[j] for j in names], dtype=np.float32))
+    n = len(names)
+    tbl = pa.table({
+        "timestamp": pa.array(ts, pa.float32()),
+        "frame_index": pa.array(range(frames), pa.int64()),
+        "episode_index": pa.array([0] * frames, pa.int64()),
+        "index": pa.array(range(frames), pa.int64()),
+        "task_index": pa.array([0] * frames, pa.int64()),
+        "observation.state": pa.FixedSizeListArray.from_arrays(
+            pa.array(np.stack(states).reshape(-1), pa.float32()), n),
+    })
+    out = args.out
+    if args.version == "v3.0":
+        p = out / "data" / "chunk-000" / "file-000.parquet"
+    else:
+        p = out / "data" / "chunk-000" / "episode_000000.parquet"
+    p.parent.mkdir(parents=True)
+    comp = None if args.compression == "none" else args.compression
+    pq.write_table(tbl, p, compression=comp)
+    scalar = lambda dt: {"dtype": dt, "shape": [1], "names": None}  # noqa: E731
+    info = {
+        "codebase_version": args.version, "robot_type": "planar_dual_arm", "total_episodes": 1,
+        "total_frames": frames, "total_tasks": 1, "chunks_size": 1000, "fps": fps,
+        "splits": {"train": "0:1"},
+        "features": {
+            "observation.state": {"dtype": "float32", "shape": [n], "names": names},
+            "timestamp": scalar("float32"), "frame_index": scalar("int64"),
+            "episode_index": scalar("int64"), "index": scalar("int64"), "task_index": scalar("int64"),
+        },
+    }
+    (out / "meta").mkdir(parents=True, exist_ok=True)
+    (out / "meta" / "info.json").write_text(json.dumps(info, indent=4))
+    print(json.dumps({"dataset": str(out), "frames": frames}))
     return 0
 
 
