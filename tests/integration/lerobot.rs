@@ -405,3 +405,48 @@ fn bags_exported_to_lerobot_come_back_the_same() {
         println!("velocities: interior {inner:.1e}, within 7 samples of the ends {edge:.1e} rad/s");
     }
 }
+
+/// A dataset written by LeRobot 0.4.4 itself (committed: LeRobot needs torch, not installed
+/// in CI; `tests/data/lerobot/lerobot-0.4.4-rby1/README.md`): every arm joint's value of every
+/// frame as the writer was given it, episodes and fps from its metadata, its tasks (pandas'
+/// `__index_level_0__` column) read by name.
+#[test]
+fn a_dataset_written_by_lerobot_itself_reads_as_written() {
+    let root = common::path("tests/data/lerobot/lerobot-0.4.4-rby1");
+    let want: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("expected.json")).unwrap())
+            .unwrap();
+    let joints = arm_joints(&want);
+    let d = read_states(&root.join("dataset"), "observation.state", &[]).unwrap();
+    assert_eq!((d.version.as_str(), d.fps), ("v3.0", 50.0));
+    let names: Vec<String> = serde_json::from_value(want["names"].clone()).unwrap();
+    assert_eq!(d.names, names);
+    let q: Vec<Vec<Vec<f64>>> = serde_json::from_value(want["q"].clone()).unwrap();
+    assert_eq!(d.episodes.len(), q.len());
+    let n = d.names.len();
+    for (e, rows) in d.episodes.iter().zip(&q) {
+        assert_eq!(e.t.len(), rows.len());
+        assert_eq!(e.task_index, e.index % 2);
+        for (k, row) in rows.iter().enumerate() {
+            assert_eq!(
+                e.t[k],
+                f64::from(k as f32 / 50.0),
+                "episode {} t[{k}]",
+                e.index
+            );
+            for (j, name) in joints.iter().enumerate() {
+                let col = d.names.iter().position(|x| x == name).unwrap();
+                assert_eq!(
+                    e.state[k * n + col],
+                    row[j],
+                    "episode {} frame {k} {name}",
+                    e.index
+                );
+            }
+        }
+    }
+    let tasks = crossym::lerobot::read_tasks(&root.join("dataset")).unwrap();
+    let mut tasks: Vec<(i64, String)> = tasks;
+    tasks.sort();
+    assert_eq!(tasks, [(0, "draw".to_string()), (1, "grasp".to_string())]);
+}
