@@ -159,12 +159,12 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
     let any: crossym::policy::AnyPolicy = if let Kind::TaskHead { null_space } = kind {
         let file = root().join(format!("data/policies/{shipped}.safetensors"));
         let any = crossym::pipeline::load_any_policy(&cfg, &kin, &file).unwrap();
-        let (any, had) = any.with_plain_lift();
         if null_space {
-            assert!(had, "{cfg_name} has no [redundancy] null-space term");
-            crossym::pipeline::load_any_policy(&cfg, &kin, &file).unwrap()
-        } else {
+            let has = any.task_head().is_some_and(|h| h.null_space().is_some());
+            assert!(has, "{cfg_name} has no [redundancy] null-space term");
             any
+        } else {
+            any.with_plain_lift().0
         }
     } else {
         policy.into()

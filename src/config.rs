@@ -344,18 +344,7 @@ impl Config {
             .rest
             .clone()
             .or_else(|| self.start_q().filter(|q| q.len() == kin.dof()))
-            .unwrap_or_else(|| {
-                kin.limits()
-                    .iter()
-                    .map(|l| {
-                        if l.lower.is_finite() && l.upper.is_finite() {
-                            0.5 * (l.lower + l.upper)
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect()
-            });
+            .unwrap_or_else(|| kin.limits().iter().map(|l| l.centre()).collect());
         crate::kinematics::NullSpaceTerm::new(settings, &rest, kin.limits()).map(Some)
     }
 

@@ -264,3 +264,51 @@ pub fn stress_geometry(cfg: &Config, name: &str) -> Result<Geometry, NodeSetupEr
         null_space,
     })
 }
+
+/// The endurance run of `cfg` ([`crate::sim::endurance`]): its node core (the config's
+/// `[node]`, with `policy` instead of `[node] policy` when given), the start posture
+/// (`[mock_hw] initial_q` or `[check] reference_q`), and the settings: the `[augmentation]`
+/// test conditions (else the identity) in turn every `condition_period_s`, the drift
+/// measured from the `[redundancy]` rest posture (else the start).
+pub fn endurance(
+    cfg: &Config,
+    policy: Option<PathBuf>,
+    duration_s: f64,
+    condition_period_s: f64,
+) -> Result<(NodeCore, Vec<f64>, crate::sim::endurance::EnduranceSettings), NodeSetupError> {
+    let robot = cfg.load_robot()?;
+    let kin = &robot.kinematics;
+    let start = cfg
+        .start_q()
+        .filter(|q| q.len() == kin.dof())
+        .ok_or_else(|| NodeSetupError::RestPosture {
+            path: cfg.path.clone(),
+            values: cfg.start_q().map_or(0, |q| q.len()),
+            joints: kin.dof(),
+        })?;
+    let rest = cfg
+        .null_space_term(kin)
+        .map_err(|source| NodeSetupError::Redundancy {
+            path: cfg.path.clone(),
+            source,
+        })?
+        .map_or_else(|| start.clone(), |t| t.rest().to_vec());
+    let conditions = cfg
+        .augmentation
+        .as_ref()
+        .map(|g| g.test.conditions())
+        .filter(|c| !c.is_empty())
+        .unwrap_or_else(|| vec![crate::symmetry::compose::Condition::IDENTITY]);
+    let mut node = cfg.node_config();
+    if policy.is_some() {
+        node.policy = policy;
+    }
+    let core = node_core(cfg, node)?;
+    let settings = crate::sim::endurance::EnduranceSettings {
+        duration_s,
+        condition_period_s,
+        conditions,
+        rest,
+    };
+    Ok((core, start, settings))
+}

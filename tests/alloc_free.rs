@@ -701,7 +701,8 @@ fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
 }
 
 /// A task-space head (issue 17) evaluates and ticks the node without allocating, on both
-/// robots: FK with Jacobian, the `m × m` factor, the head's network, the group's action.
+/// robots: FK with Jacobian, the `m × m` factor, the head's network, the group's action —
+/// with the plain lift and with the null-space term (issue 37).
 #[test]
 fn task_head_and_its_node_tick_are_allocation_free() {
     use crossym::config::Config;
@@ -722,49 +723,66 @@ fn task_head_and_its_node_tick_are_allocation_free() {
         let mut head = Policy::synthetic(m, task_coordinate_names(&kin), &[64, 64], 5);
         head.meta.task_head =
             Some(crossym::pipeline::group_map(&cfg, &kin, SubGroup::MRT).unwrap());
-        let policy = AnyPolicy::new(head, &kin).unwrap();
-        assert!(policy.task_head().is_some());
-        let mut ws = policy.workspace();
-        let mut v = vec![0.0; n];
-        let q_ref = cfg
-            .check
-            .reference_q
-            .clone()
-            .unwrap_or_else(|| vec![0.0; n]);
-        let mut rng = StdRng::seed_from_u64(37);
-        let mut ok = 0usize;
-        for k in 0..60 {
-            let q: Vec<f64> = if k % 3 == 2 {
-                random_q(&mut rng, kin.limits())
-            } else {
-                q_ref
-                    .iter()
-                    .map(|x| x + rng.random_range(-0.2..0.2))
-                    .collect()
-            };
-            let s = Condition {
-                theta: rng.random_range(-3.0..3.0),
-                scale: rng.random_range(0.3..1.4),
-                reflection: if k % 2 == 0 { 1 } else { -1 },
-            };
-            let (r, count, first) = count_allocs(|| policy.velocity(&q, &s, &mut v, &mut ws));
-            let text = first.map(|b| b.to_string()).unwrap_or_default();
-            assert_eq!(count, 0, "[{robot}] task head ({r:?}) allocated:\n{text}");
-            if r.is_ok() {
-                assert!(all_finite(&v));
-                ok += 1;
+        let plain = AnyPolicy::new(head, &kin).unwrap();
+        assert!(plain.task_head().is_some());
+        // The lift with the null-space term (issue 37), as `[redundancy]` adds it.
+        let q_rest = cfg.check.reference_q.clone().unwrap();
+        let term = crossym::kinematics::NullSpaceTerm::new(
+            crossym::kinematics::NullSpaceSettings {
+                weight: 1.0,
+                ..Default::default()
+            },
+            &q_rest,
+            kin.limits(),
+        )
+        .unwrap();
+        let (with_term, added) = plain.clone().with_null_space(term).unwrap();
+        assert!(added);
+        for (variant, policy) in [("", plain), (" + null space", with_term)] {
+            let robot = format!("{robot}{variant}");
+            let kin = kin.clone();
+            let mut ws = policy.workspace();
+            let mut v = vec![0.0; n];
+            let q_ref = cfg
+                .check
+                .reference_q
+                .clone()
+                .unwrap_or_else(|| vec![0.0; n]);
+            let mut rng = StdRng::seed_from_u64(37);
+            let mut ok = 0usize;
+            for k in 0..60 {
+                let q: Vec<f64> = if k % 3 == 2 {
+                    random_q(&mut rng, kin.limits())
+                } else {
+                    q_ref
+                        .iter()
+                        .map(|x| x + rng.random_range(-0.2..0.2))
+                        .collect()
+                };
+                let s = Condition {
+                    theta: rng.random_range(-3.0..3.0),
+                    scale: rng.random_range(0.3..1.4),
+                    reflection: if k % 2 == 0 { 1 } else { -1 },
+                };
+                let (r, count, first) = count_allocs(|| policy.velocity(&q, &s, &mut v, &mut ws));
+                let text = first.map(|b| b.to_string()).unwrap_or_default();
+                assert_eq!(count, 0, "[{robot}] task head ({r:?}) allocated:\n{text}");
+                if r.is_ok() {
+                    assert!(all_finite(&v));
+                    ok += 1;
+                }
             }
-        }
-        assert!(ok > 0, "[{robot}] the task head never evaluated");
+            assert!(ok > 0, "[{robot}] the task head never evaluated");
 
-        node_ticks_allocate_nothing(
-            &format!("[{robot}] task head"),
-            kin,
-            policy,
-            &q_ref,
-            &mut rng,
-            0.5..1.0,
-        );
+            node_ticks_allocate_nothing(
+                &format!("[{robot}] task head"),
+                kin,
+                policy,
+                &q_ref,
+                &mut rng,
+                0.5..1.0,
+            );
+        }
     }
 }
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use crossym::config::{Config, RedundancyConfig};
-use crossym::sim::endurance::{self, EnduranceSettings};
+use crossym::sim::endurance;
 
 /// Options of `crossym endurance`.
 #[derive(Debug, clap::Args)]
@@ -46,37 +46,8 @@ pub fn run(a: &EnduranceArgs) -> anyhow::Result<ExitCode> {
             ..cfg.redundancy.clone().unwrap_or_default()
         });
     }
-    let mut node = cfg.node_config();
-    if let Some(p) = &a.policy {
-        node.policy = Some(p.clone());
-    }
-    let robot = cfg.load_robot()?;
-    let kin = &robot.kinematics;
-    let start = cfg
-        .start_q()
-        .filter(|q| q.len() == kin.dof())
-        .ok_or_else(|| {
-            anyhow::anyhow!(
-                "{}: no start posture ([mock_hw] initial_q or [check] reference_q)",
-                a.config.display()
-            )
-        })?;
-    let rest = cfg
-        .null_space_term(kin)?
-        .map_or_else(|| start.clone(), |t| t.rest().to_vec());
-    let conditions = cfg
-        .augmentation
-        .as_ref()
-        .map(|g| g.test.conditions())
-        .filter(|c| !c.is_empty())
-        .unwrap_or_else(|| vec![crossym::symmetry::compose::Condition::IDENTITY]);
-    let mut core = crossym::setup::node_core(&cfg, node)?;
-    let settings = EnduranceSettings {
-        duration_s: a.duration_s,
-        condition_period_s: a.condition_period_s,
-        conditions,
-        rest,
-    };
+    let (mut core, start, settings) =
+        crossym::setup::endurance(&cfg, a.policy.clone(), a.duration_s, a.condition_period_s)?;
     let report = endurance::run(&mut core, &start, &settings);
     let weight = cfg.redundancy.as_ref().map_or(0.0, |r| r.weight);
     println!(

@@ -30,27 +30,37 @@ const CONDITIONS: [Condition; 3] = [
     },
 ];
 
-/// `g · x` on the letters' task space from the *task-space* actions of the configured
-/// symmetries (ρ_X, the rotation and the scaling acting on X).
-fn task_action(built: &[BuiltSymmetry], s: &Condition, x: &[f64]) -> Vec<f64> {
-    let find = |name: &str| built.iter().find(|b| b.name() == name).unwrap();
-    let BuiltSymmetry::Finite {
+/// `g · x` from the *task-space* actions of the configured symmetries (ρ_X of `M`, the
+/// rotation `R` and, when the task has one, the scaling `S`, acting on X) — not from any
+/// policy's own map.
+pub(crate) fn task_action(built: &[BuiltSymmetry], s: &Condition, x: &[f64]) -> Vec<f64> {
+    let find = |name: &str| built.iter().find(|b| b.name() == name);
+    let Some(BuiltSymmetry::Finite {
         rho_x: Some(rho_x), ..
-    } = find("M")
+    }) = find("M")
     else {
         panic!("M descends to X")
     };
     let lie = |name: &str| match find(name) {
-        BuiltSymmetry::Lie { action, .. } => action.as_ref(),
+        Some(BuiltSymmetry::Lie { action, .. }) => Some(action.as_ref()),
+        None => None,
         _ => panic!("{name} is a Lie symmetry"),
     };
-    let (rot, sc) = (lie("R"), lie("S"));
+    let rot = lie("R").expect("R");
+    let sc = lie("S");
     let mut out = vec![0.0; x.len()];
     assert!(apply_condition(
         s,
         rho_x,
         &|t, p, o| rot.act_on(&[t], p, o),
-        &|t, p, o| sc.act_on(&[t], p, o),
+        &|t, p, o| match sc {
+            Some(sc) => sc.act_on(&[t], p, o),
+            None => {
+                assert_eq!(t, 0.0, "a task without scaling gets λ = 1");
+                o.copy_from_slice(p);
+                true
+            }
+        },
         x,
         &mut out
     ));

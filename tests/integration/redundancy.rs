@@ -11,12 +11,12 @@ use crossym::kinematics::{
 };
 use crossym::policy::{AnyPolicy, TaskHeadPolicy};
 use crossym::symmetry::check::BuiltSymmetry;
-use crossym::symmetry::compose::{apply_condition, Condition};
+use crossym::symmetry::compose::Condition;
 use crossym::symmetry::transfer::composed::{ComposedLift, LiftIntegrator};
 use crossym::symmetry::transfer::flow::FlowSettings;
 
 use super::common;
-use super::equivariant::step;
+use super::equivariant::{step, task_action};
 
 /// Off any training grid: θ not a multiple of 10°, λ between the grid's scales, both σ.
 const CONDITIONS: [Condition; 3] = [
@@ -36,42 +36,6 @@ const CONDITIONS: [Condition; 3] = [
         reflection: -1,
     },
 ];
-
-/// `g · x` from the configured symmetries' own task-space actions (ρ_X of `M`, the
-/// rotation `R`, the scaling `S` when the task has one), not from the head's map.
-fn task_action(built: &[BuiltSymmetry], s: &Condition, x: &[f64]) -> Vec<f64> {
-    let find = |name: &str| built.iter().find(|b| b.name() == name);
-    let Some(BuiltSymmetry::Finite {
-        rho_x: Some(rho_x), ..
-    }) = find("M")
-    else {
-        panic!("M descends to X")
-    };
-    let lie = |name: &str| match find(name) {
-        Some(BuiltSymmetry::Lie { action, .. }) => Some(action.as_ref()),
-        None => None,
-        _ => panic!("{name} is a Lie symmetry"),
-    };
-    let rot = lie("R").expect("R");
-    let sc = lie("S");
-    let mut out = vec![0.0; x.len()];
-    assert!(apply_condition(
-        s,
-        rho_x,
-        &|t, p, o| rot.act_on(&[t], p, o),
-        &|t, p, o| match sc {
-            Some(sc) => sc.act_on(&[t], p, o),
-            None => {
-                assert_eq!(t, 0.0, "a task without scaling gets λ = 1");
-                o.copy_from_slice(p);
-                true
-            }
-        },
-        x,
-        &mut out
-    ));
-    out
-}
 
 /// `J⁺` by an SVD of `J` (independent of crossym's Cholesky-based pseudo-inverse).
 fn svd_pinv(j: &DMatrix<f64>) -> DMatrix<f64> {
@@ -395,20 +359,7 @@ fn rby1_heads_with_the_null_space_term_are_exactly_equivariant_in_task_space() {
 /// The endurance run of `config` for `seconds` with the null-space weight `weight`.
 fn endurance(config: &str, seconds: f64, weight: f64) -> crossym::sim::endurance::EnduranceReport {
     let cfg = with_redundancy(common::load_config(config), weight);
-    let robot = cfg.load_robot().unwrap();
-    let start = cfg.start_q().unwrap();
-    let rest = cfg
-        .null_space_term(&robot.kinematics)
-        .unwrap()
-        .map_or_else(|| start.clone(), |t| t.rest().to_vec());
-    let conditions = cfg.augmentation.as_ref().unwrap().test.conditions();
-    let mut core = crossym::setup::node_core(&cfg, cfg.node_config()).unwrap();
-    let settings = crossym::sim::endurance::EnduranceSettings {
-        duration_s: seconds,
-        condition_period_s: 10.0,
-        conditions,
-        rest,
-    };
+    let (mut core, start, settings) = crossym::setup::endurance(&cfg, None, seconds, 10.0).unwrap();
     let r = crossym::sim::endurance::run(&mut core, &start, &settings);
     println!("{config}, weight {weight}: {r}");
     r

@@ -65,6 +65,15 @@ impl JointLimits {
         acceleration: None,
     };
 
+    /// The middle of the range (rad or m); 0 where a side is unbounded.
+    pub fn centre(&self) -> f64 {
+        if self.lower.is_finite() && self.upper.is_finite() {
+            0.5 * (self.lower + self.upper)
+        } else {
+            0.0
+        }
+    }
+
     /// True when `q` lies in `[lower, upper]` (rad or m).
     pub fn contains(&self, q: f64) -> bool {
         q >= self.lower && q <= self.upper

@@ -208,17 +208,7 @@ pub fn sample_configs(kin: &Kinematics, cfg: &CheckConfig) -> Result<Vec<Vec<f64
                 ),
             })
         }
-        None => kin
-            .limits()
-            .iter()
-            .map(|l| {
-                if l.lower.is_finite() && l.upper.is_finite() {
-                    0.5 * (l.lower + l.upper)
-                } else {
-                    0.0
-                }
-            })
-            .collect(),
+        None => kin.limits().iter().map(|l| l.centre()).collect(),
     };
     if cfg.samples == 0 || !(cfg.spread.is_finite() && cfg.spread >= 0.0) {
         return Err(CheckError::Config {
