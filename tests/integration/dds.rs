@@ -782,11 +782,13 @@ fn conditions_follow_the_observed_pan_pose() {
     );
     let checks: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert_eq!(checks.len(), 9, "{stdout}");
+    assert_eq!(checks.len(), 12, "{stdout}");
     let log = std::fs::read_to_string(&node_log).unwrap();
     for needle in [
         "conditions also from the object pose on /crossym/task_pose",
-        "rejected task_pose (keeping the condition in force): pose in frame `world`",
+        "poses in other frames carried into `link_torso_5` through /tf and /tf_static",
+        "rejected task_pose (keeping the condition in force): pose in frame `world`: no transform from `world` to `link_torso_5`",
+        "pose in frame `camera`: transform `mount` → `camera` is",
         "conditions now from symmetry_condition",
         "conditions now from the task pose",
     ] {

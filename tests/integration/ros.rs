@@ -98,6 +98,10 @@ fn message_tables_follow_serde_order() {
     check_serde::<msg::Quaternion>();
     check_serde::<msg::Pose>();
     check_serde::<msg::PoseStamped>();
+    check_serde::<msg::Vector3>();
+    check_serde::<msg::Transform>();
+    check_serde::<msg::TransformStamped>();
+    check_serde::<msg::TFMessage>();
     assert_eq!(
         msg::JointState::TYPE_NAME,
         "sensor_msgs::msg::dds_::JointState_"

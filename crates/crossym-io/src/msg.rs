@@ -228,6 +228,80 @@ ros_message!(
     ]
 );
 
+/// `geometry_msgs/Vector3`: a free vector (here a translation, m).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Vector3 {
+    /// x.
+    pub x: f64,
+    /// y.
+    pub y: f64,
+    /// z.
+    pub z: f64,
+}
+
+ros_message!(
+    Vector3,
+    "geometry_msgs::msg::dds_::Vector3_",
+    "geometry_msgs/msg/Vector3",
+    [("x", "float64"), ("y", "float64"), ("z", "float64")]
+);
+
+/// `geometry_msgs/Transform`: the pose of a child frame in its parent (`p_parent =
+/// R(rotation) p_child + translation`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Transform {
+    /// Translation (m).
+    pub translation: Vector3,
+    /// Rotation.
+    pub rotation: Quaternion,
+}
+
+ros_message!(
+    Transform,
+    "geometry_msgs::msg::dds_::Transform_",
+    "geometry_msgs/msg/Transform",
+    [
+        ("translation", "geometry_msgs/Vector3"),
+        ("rotation", "geometry_msgs/Quaternion"),
+    ]
+);
+
+/// `geometry_msgs/TransformStamped`: one edge of the TF tree (`header.frame_id` the parent).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TransformStamped {
+    /// Stamp and parent frame.
+    pub header: Header,
+    /// The child frame.
+    pub child_frame_id: String,
+    /// The child's pose in the parent.
+    pub transform: Transform,
+}
+
+ros_message!(
+    TransformStamped,
+    "geometry_msgs::msg::dds_::TransformStamped_",
+    "geometry_msgs/msg/TransformStamped",
+    [
+        ("header", "std_msgs/Header"),
+        ("child_frame_id", "string"),
+        ("transform", "geometry_msgs/Transform"),
+    ]
+);
+
+/// `tf2_msgs/TFMessage`: the edges `/tf` and `/tf_static` carry.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TFMessage {
+    /// The transforms.
+    pub transforms: Vec<TransformStamped>,
+}
+
+ros_message!(
+    TFMessage,
+    "tf2_msgs::msg::dds_::TFMessage_",
+    "tf2_msgs/msg/TFMessage",
+    [("transforms", "geometry_msgs/TransformStamped[]")]
+);
+
 /// `std_msgs/MultiArrayDimension`: one dimension of a multi-array layout.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct MultiArrayDimension {

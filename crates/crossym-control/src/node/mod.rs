@@ -36,9 +36,11 @@ mod feasibility;
 mod fit;
 mod gate;
 mod rejection;
+mod rigid;
 mod stage;
 mod status;
 mod task_pose;
+mod tf;
 
 pub use self::command::Command;
 pub use self::config::{NodeConfig, OutputMode, TopicNames, Trigger};
@@ -47,8 +49,10 @@ pub use self::error::NodeError;
 pub use self::feasibility::{ConditionFeasibility, Infeasibility};
 pub use self::gate::{InputGate, Inputs, SHUTDOWN_SEQUENCE_BIT};
 pub use self::rejection::Rejection;
+pub use self::rigid::{Quat, Rigid};
 pub use self::stage::{OutputStage, PolicyOutput};
 pub use self::status::{StatusCode, StatusSnapshot, TickReport};
 pub use self::task_pose::{
     PoseCondition, PoseRejection, TaskPoseConfig, TaskPoseConfigError, TaskPoseMap,
 };
+pub use self::tf::{TfBuffer, TfError};

@@ -17,8 +17,10 @@
 //! - **λ**: the configured `scale` (no size is observed; 1 where the task has no scaling).
 //!
 //! The condition then goes through the node's input gate like a condition message (its
-//! box or feasibility checks). Pose-specific refusals: another frame (no TF lookup:
-//! publish the pose in the configured frame), a non-finite pose, a zero quaternion, a
+//! box or feasibility checks). A pose stated in another frame is first carried into the
+//! configured one through the TF tree (`/tf`, `/tf_static`; see [`super::tf`]) when `tf` is
+//! on. Pose-specific refusals: another frame without TF (or no path, or a moving transform
+//! too far in time from the pose's stamp), a non-finite pose, a zero quaternion, a
 //! stamp older than `max_age_s` when it arrives, an object moved farther than
 //! `position_tolerance_m` from where the demonstrations had it.
 
@@ -26,6 +28,9 @@ use serde::{Deserialize, Serialize};
 
 use crossym_io::msg;
 use crossym_math::symmetry::compose::Condition;
+
+use super::rigid::{dot, normalised, q_conj, q_mul, q_rotate, unit_quat, Quat, Rigid};
+use super::tf::{TfBuffer, TfError};
 
 /// `[node.task_pose]`: where poses come from and the reference they are compared with.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -62,6 +67,14 @@ pub struct TaskPoseConfig {
     /// about the reference, they do not carry it elsewhere).
     #[serde(default = "default_position_tolerance")]
     pub position_tolerance_m: f64,
+    /// Carry poses stated in another frame into `frame` through `/tf` and `/tf_static`
+    /// (the node then subscribes to both; off: such poses are refused).
+    #[serde(default)]
+    pub tf: bool,
+    /// A moving transform on the way from the pose's frame is used when its stamp is at
+    /// most this far from the pose's stamp (s; `/tf_static` transforms never age).
+    #[serde(default = "default_tf_tolerance")]
+    pub tf_tolerance_s: f64,
 }
 
 fn default_topic() -> String {
@@ -79,18 +92,29 @@ fn default_max_age() -> f64 {
 fn default_position_tolerance() -> f64 {
     0.03
 }
+fn default_tf_tolerance() -> f64 {
+    0.1
+}
 
 /// Why a pose gives no condition.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PoseRejection {
-    /// The pose is stated in another frame.
-    #[error("pose in frame `{got}`, expected `{want}` (no TF lookup: publish it in `{want}`)")]
+    /// The pose is stated in another frame and TF lookups are off.
+    #[error("pose in frame `{got}`, expected `{want}` (TF lookups are off: set `tf = true` or publish it in `{want}`)")]
     Frame {
         /// The message's frame.
         got: String,
         /// The configured frame.
         want: String,
+    },
+    /// The pose's frame could not be carried into the configured one.
+    #[error("pose in frame `{got}`: {error}")]
+    Transform {
+        /// The message's frame.
+        got: String,
+        /// Why not.
+        error: TfError,
     },
     /// A position or orientation component is not finite.
     #[error("non-finite pose")]
@@ -137,42 +161,6 @@ pub struct PoseCondition {
     pub condition: Condition,
     /// Swing angle of the relative rotation (rad).
     pub tilt: f64,
-}
-
-type Quat = [f64; 4]; // [x, y, z, w]
-
-fn q_mul(a: Quat, b: Quat) -> Quat {
-    let [ax, ay, az, aw] = a;
-    let [bx, by, bz, bw] = b;
-    [
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ]
-}
-
-fn q_conj(q: Quat) -> Quat {
-    [-q[0], -q[1], -q[2], q[3]]
-}
-
-fn q_rotate(q: Quat, v: [f64; 3]) -> [f64; 3] {
-    let p = q_mul(q_mul(q, [v[0], v[1], v[2], 0.0]), q_conj(q));
-    [p[0], p[1], p[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn normalised(v: [f64; 3]) -> Option<[f64; 3]> {
-    let n = dot(v, v).sqrt();
-    (n.is_finite() && n > 1e-12).then(|| [v[0] / n, v[1] / n, v[2] / n])
-}
-
-fn unit_quat(q: Quat) -> Option<Quat> {
-    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
-    (n.is_finite() && n > 1e-9).then(|| [q[0] / n, q[1] / n, q[2] / n, q[3] / n])
 }
 
 /// [`TaskPoseConfig`] checked and ready: normalised axes, the reference side.
@@ -223,6 +211,12 @@ impl TaskPoseMap {
                 format!("{} must be positive", cfg.max_age_s),
             ));
         }
+        if !(cfg.tf_tolerance_s.is_finite() && cfg.tf_tolerance_s > 0.0) {
+            return Err(bad(
+                "tf_tolerance_s",
+                format!("{} must be positive", cfg.tf_tolerance_s),
+            ));
+        }
         if cfg.frame.is_empty() {
             return Err(bad("frame", "must name a frame".into()));
         }
@@ -264,18 +258,14 @@ impl TaskPoseMap {
         dot([x[0] - c[0], x[1] - c[1], x[2] - c[2]], self.normal)
     }
 
-    /// The condition of the pose `m`, received at `now_s` (wall clock, s).
+    /// The condition of the pose `m`, received at `now_s` (wall clock, s); a pose in
+    /// another frame is carried into the configured one through `tf` (`None`: refused).
     pub fn condition(
         &self,
         m: &msg::PoseStamped,
         now_s: f64,
+        tf: Option<&TfBuffer>,
     ) -> Result<PoseCondition, PoseRejection> {
-        if m.header.frame_id != self.cfg.frame {
-            return Err(PoseRejection::Frame {
-                got: m.header.frame_id.clone(),
-                want: self.cfg.frame.clone(),
-            });
-        }
         let (p, o) = (m.pose.position, m.pose.orientation);
         let p = [p.x, p.y, p.z];
         let q = [o.x, o.y, o.z, o.w];
@@ -283,13 +273,34 @@ impl TaskPoseMap {
             return Err(PoseRejection::NonFinite);
         }
         let q = unit_quat(q).ok_or(PoseRejection::ZeroQuaternion)?;
-        let age = now_s - m.header.stamp.as_secs_f64();
+        let stamp = m.header.stamp.as_secs_f64();
+        let age = now_s - stamp;
         if age > self.cfg.max_age_s {
             return Err(PoseRejection::Stale {
                 age_s: age,
                 max_s: self.cfg.max_age_s,
             });
         }
+        let (p, q) = if m.header.frame_id == self.cfg.frame {
+            (p, q)
+        } else {
+            let tf = tf.ok_or_else(|| PoseRejection::Frame {
+                got: m.header.frame_id.clone(),
+                want: self.cfg.frame.clone(),
+            })?;
+            let t: Rigid = tf
+                .lookup(
+                    &self.cfg.frame,
+                    &m.header.frame_id,
+                    stamp,
+                    self.cfg.tf_tolerance_s,
+                )
+                .map_err(|error| PoseRejection::Transform {
+                    got: m.header.frame_id.clone(),
+                    error,
+                })?;
+            (t.apply(p), q_mul(t.rotation, q))
+        };
         let r0 = self.cfg.reference_position;
         let moved =
             ((p[0] - r0[0]).powi(2) + (p[1] - r0[1]).powi(2) + (p[2] - r0[2]).powi(2)).sqrt();
@@ -365,6 +376,8 @@ mod tests {
             scale: 1.0,
             max_age_s: 0.5,
             position_tolerance_m: 0.03,
+            tf: false,
+            tf_tolerance_s: 0.1,
         })
         .unwrap()
     }
@@ -404,7 +417,9 @@ mod tests {
         let m = pan();
         for deg in [-60.0f64, -10.0, 0.0, 25.0, 80.0] {
             let a = deg.to_radians();
-            let c = m.condition(&pose("link_torso_5", a, 10.0), 10.0).unwrap();
+            let c = m
+                .condition(&pose("link_torso_5", a, 10.0), 10.0, None)
+                .unwrap();
             assert_eq!(c.condition.reflection, 1, "{deg}°");
             assert!((c.condition.theta - a).abs() < 1e-12, "{deg}°: {c:?}");
             assert!(c.tilt.abs() < 1e-6);
@@ -412,7 +427,9 @@ mod tests {
         // Handle direction after a yaw of `a`: R(a)·(0, −1, 0) = (sin a, −cos a, 0).
         for deg in [120.0f64, 180.0, -135.0, 100.0] {
             let a = deg.to_radians();
-            let c = m.condition(&pose("link_torso_5", a, 10.0), 10.0).unwrap();
+            let c = m
+                .condition(&pose("link_torso_5", a, 10.0), 10.0, None)
+                .unwrap();
             assert_eq!(c.condition.reflection, -1, "{deg}°");
             // g h0 = M R(θ) h0 must be the observed handle direction.
             let t = c.condition.theta;
@@ -436,7 +453,7 @@ mod tests {
             z: q[2],
             w: q[3],
         };
-        let c = m.condition(&p, 10.0).unwrap();
+        let c = m.condition(&p, 10.0, None).unwrap();
         assert!((c.condition.theta - a).abs() < 1e-12, "{c:?}");
         assert!((c.tilt - b).abs() < 1e-12, "{c:?}");
     }
@@ -444,11 +461,13 @@ mod tests {
     #[test]
     fn bad_poses_are_refused_by_reason() {
         let m = pan();
-        let e = m.condition(&pose("world", 0.0, 10.0), 10.0).unwrap_err();
+        let e = m
+            .condition(&pose("world", 0.0, 10.0), 10.0, None)
+            .unwrap_err();
         assert!(matches!(e, PoseRejection::Frame { .. }), "{e}");
         let mut nan = pose("link_torso_5", 0.0, 10.0);
         nan.pose.position.x = f64::NAN;
-        assert_eq!(m.condition(&nan, 10.0), Err(PoseRejection::NonFinite));
+        assert_eq!(m.condition(&nan, 10.0, None), Err(PoseRejection::NonFinite));
         let mut zero = pose("link_torso_5", 0.0, 10.0);
         zero.pose.orientation = msg::Quaternion {
             x: 0.0,
@@ -456,15 +475,112 @@ mod tests {
             z: 0.0,
             w: 0.0,
         };
-        assert_eq!(m.condition(&zero, 10.0), Err(PoseRejection::ZeroQuaternion));
+        assert_eq!(
+            m.condition(&zero, 10.0, None),
+            Err(PoseRejection::ZeroQuaternion)
+        );
         let e = m
-            .condition(&pose("link_torso_5", 0.0, 9.0), 10.0)
+            .condition(&pose("link_torso_5", 0.0, 9.0), 10.0, None)
             .unwrap_err();
         assert!(matches!(e, PoseRejection::Stale { .. }), "{e}");
         let mut moved = pose("link_torso_5", 0.0, 10.0);
         moved.pose.position.x += 0.05;
-        let e = m.condition(&moved, 10.0).unwrap_err();
+        let e = m.condition(&moved, 10.0, None).unwrap_err();
         assert!(matches!(e, PoseRejection::Moved { .. }), "{e}");
+    }
+
+    /// A pose stated in a camera's frame (camera at (0.1, 0.3, 0.4) in the torso frame,
+    /// yawed by −90° there) gives, through the TF tree, the condition of the same pose in the
+    /// torso frame; without TF it is refused by frame; a stale moving camera edge refuses.
+    #[test]
+    fn poses_in_another_frame_go_through_tf() {
+        let m = pan();
+        let half = -0.25 * std::f64::consts::PI;
+        let camera = Rigid {
+            rotation: [0.0, 0.0, half.sin(), half.cos()],
+            translation: [0.1, 0.3, 0.4],
+        };
+        let mut tf = TfBuffer::new();
+        let edge = |stamp: f64| msg::TransformStamped {
+            header: msg::Header {
+                stamp: msg::Time::from_secs_f64(stamp),
+                frame_id: "link_torso_5".into(),
+            },
+            child_frame_id: "camera".into(),
+            transform: msg::Transform {
+                translation: msg::Vector3 {
+                    x: 0.1,
+                    y: 0.3,
+                    z: 0.4,
+                },
+                rotation: msg::Quaternion {
+                    x: camera.rotation[0],
+                    y: camera.rotation[1],
+                    z: camera.rotation[2],
+                    w: camera.rotation[3],
+                },
+            },
+        };
+        tf.insert(&edge(10.0), false).unwrap();
+        let inv = camera.inverse();
+        for deg in [-40.0f64, 0.0, 30.0, 150.0] {
+            let in_torso = pose("link_torso_5", deg.to_radians(), 10.0);
+            let want = m.condition(&in_torso, 10.0, None).unwrap();
+            // The same pose seen from the camera.
+            let o = in_torso.pose.orientation;
+            let pp = in_torso.pose.position;
+            let p = inv.apply([pp.x, pp.y, pp.z]);
+            let q = q_mul(inv.rotation, [o.x, o.y, o.z, o.w]);
+            let mut seen = in_torso.clone();
+            seen.header.frame_id = "camera".into();
+            seen.pose.position = msg::Point {
+                x: p[0],
+                y: p[1],
+                z: p[2],
+            };
+            seen.pose.orientation = msg::Quaternion {
+                x: q[0],
+                y: q[1],
+                z: q[2],
+                w: q[3],
+            };
+            let got = m.condition(&seen, 10.0, Some(&tf)).unwrap();
+            assert_eq!(
+                got.condition.reflection, want.condition.reflection,
+                "{deg}°"
+            );
+            assert!(
+                (got.condition.theta - want.condition.theta).abs() < 1e-9,
+                "{deg}°: {got:?} vs {want:?}"
+            );
+            let e = m.condition(&seen, 10.0, None).unwrap_err();
+            assert!(matches!(e, PoseRejection::Frame { .. }), "{e}");
+        }
+        let mut late = pose("link_torso_5", 0.0, 10.3);
+        late.header.frame_id = "camera".into();
+        let e = m.condition(&late, 10.3, Some(&tf)).unwrap_err();
+        assert!(
+            matches!(
+                &e,
+                PoseRejection::Transform {
+                    error: TfError::Stale { .. },
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        late.header.frame_id = "gripper".into();
+        let e = m.condition(&late, 10.3, Some(&tf)).unwrap_err();
+        assert!(
+            matches!(
+                &e,
+                PoseRejection::Transform {
+                    error: TfError::NoPath { .. },
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 
     #[test]

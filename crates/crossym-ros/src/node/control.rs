@@ -35,7 +35,8 @@ use super::stats::{span_us, Histogram, TickStats};
 use super::Endpoints;
 use crate::dds;
 use crossym_control::node::{
-    Command, NodeCore, PoseRejection, Rejection, StatusSnapshot, TaskPoseMap, Trigger,
+    Command, NodeCore, PoseRejection, Rejection, StatusSnapshot, TaskPoseMap, TfBuffer, TfError,
+    Trigger,
 };
 use crossym_io::msg;
 use crossym_math::symmetry::compose::Condition;
@@ -47,6 +48,8 @@ const POSES: Token = Token(3);
 /// Messages taken from one subscription before the tick is considered again (a flood of
 /// messages cannot starve the tick).
 const MAX_READS: usize = 64;
+/// TF messages taken from each TF reader when a pose arrives (its history depth).
+const TF_READS: usize = 100;
 
 /// What the control thread tells the I/O thread's log.
 pub(super) enum ToIo {
@@ -65,6 +68,8 @@ pub(super) enum ToIo {
     ConditionAccepted(Condition),
     /// A task pose gave no condition.
     PoseRejected(PoseRejection),
+    /// A TF edge was refused (non-finite, zero rotation, its own parent).
+    TfRefused(TfError),
     /// The conditions now come from the other source (`true`: the task pose).
     ConditionSource {
         /// From the task pose (else from `symmetry_condition`).
@@ -106,6 +111,9 @@ pub(super) struct ControlThread {
     pose_map: Option<TaskPoseMap>,
     /// Whether the last condition came from a task pose (a switch is logged once).
     from_pose: bool,
+    /// The TF tree (`[node.task_pose] tf`), updated from `/tf` and `/tf_static` when a pose
+    /// arrives.
+    tf: Option<TfBuffer>,
     /// Publisher's source stamp → DDS receive, per joint state (µs).
     dds_in: Histogram,
     /// DDS receive → taken by this thread, per joint state (µs).
@@ -140,6 +148,7 @@ impl ControlThread {
             .map(TaskPoseMap::new)
             .transpose()
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+        let tf = ends.tf.as_ref().map(|_| TfBuffer::new());
         let waker = Arc::new(Waker::new(poll.registry(), WAKE)?);
         let accepted = core.condition();
         Ok((
@@ -152,6 +161,7 @@ impl ControlThread {
                 accepted,
                 pose_map,
                 from_pose: false,
+                tf,
                 dds_in: Histogram::new(),
                 to_control: Histogram::new(),
                 tick: Histogram::new(),
@@ -323,10 +333,14 @@ impl ControlThread {
     /// message (validated by the gate, recorded as one, so replay sees what drove the
     /// node); the last source wins and a switch is logged.
     fn on_task_pose(&mut self, m: msg::PoseStamped) {
+        if self.pose_map.is_none() {
+            return;
+        }
+        self.read_tf();
         let Some(map) = self.pose_map.as_ref() else {
             return;
         };
-        match map.condition(&m, dds::wall_time_s()) {
+        match map.condition(&m, dds::wall_time_s(), self.tf.as_ref()) {
             Ok(pc) => {
                 if !self.from_pose {
                     self.from_pose = true;
@@ -344,6 +358,36 @@ impl ControlThread {
                 self.on_condition(c);
             }
             Err(r) => self.tell(ToIo::PoseRejected(r)),
+        }
+    }
+
+    /// Takes the TF edges waiting (at most the readers' depth each) into the tree.
+    fn read_tf(&mut self) {
+        let (Some(subs), Some(tree)) = (self.ends.tf.as_ref(), self.tf.as_mut()) else {
+            return;
+        };
+        let mut events = Vec::new();
+        for (sub, fixed) in [(&subs.fixed, true), (&subs.dynamic, false)] {
+            for _ in 0..TF_READS {
+                match sub.take() {
+                    Ok(Some((m, _))) => {
+                        if let Err(e) = tree.insert_message(&m, fixed) {
+                            events.push(ToIo::TfRefused(e));
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        events.push(ToIo::Undecodable {
+                            topic: if fixed { "tf_static" } else { "tf" },
+                            error: format!("{e:?}"),
+                        });
+                        break;
+                    }
+                }
+            }
+        }
+        for e in events {
+            self.tell(e);
         }
     }
 

@@ -64,6 +64,11 @@ impl IoSide {
                 Severity::Warn,
                 &format!("rejected task_pose (keeping the condition in force): {r}"),
             ),
+            ToIo::TfRefused(e) => self.log.limited(
+                "tf",
+                Severity::Warn,
+                &format!("TF edge ignored: {e}"),
+            ),
             ToIo::ConditionSource { from_pose, tilt } => self.log.log(
                 Severity::Info,
                 &if from_pose {

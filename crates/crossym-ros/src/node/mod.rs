@@ -208,6 +208,24 @@ fn node_options(core: &NodeCore) -> NodeOptions {
     }))
 }
 
+/// The TF topics' readers.
+struct TfSubscriptions {
+    dynamic: ros2_client::Subscription<msg::TFMessage>,
+    fixed: ros2_client::Subscription<msg::TFMessage>,
+}
+
+impl TfSubscriptions {
+    /// `/tf` and `/tf_static` with tf2's own reader QoS (depth 100; static: transient local).
+    fn create(node: &mut ros2_client::Node) -> Result<Self, DdsError> {
+        let fixed_qos =
+            dds::qos_reliable(100).durability(ros2_client::qos::Durability::TransientLocal);
+        Ok(Self {
+            dynamic: dds::subscription::<msg::TFMessage>(node, "/tf", dds::qos_reliable(100))?,
+            fixed: dds::subscription::<msg::TFMessage>(node, "/tf_static", fixed_qos)?,
+        })
+    }
+}
+
 /// The node's topics: two inputs, the command and the status.
 struct Endpoints {
     joint_states: ros2_client::Subscription<msg::JointState>,
@@ -215,6 +233,11 @@ struct Endpoints {
     /// `[node.task_pose]`: the observed object's pose (best effort: matches reliable and
     /// best-effort perception publishers).
     poses: Option<ros2_client::Subscription<msg::PoseStamped>>,
+    /// `[node.task_pose] tf`: `/tf` (reliable, volatile) and `/tf_static` (reliable,
+    /// transient local: the static edges published before the node started), read when a
+    /// pose arrives (never registered with the poll: the tree's traffic does not wake the
+    /// control thread).
+    tf: Option<TfSubscriptions>,
     command: CommandPublisher,
     status: ros2_client::Publisher<msg::Status>,
 }
@@ -259,6 +282,10 @@ impl Endpoints {
                     dds::qos_sensor(),
                 )?),
                 None => None,
+            },
+            tf: match &cfg.task_pose {
+                Some(p) if p.tf => Some(TfSubscriptions::create(node)?),
+                _ => None,
             },
             command,
             status: dds::publisher::<msg::Status>(node, &cfg.topics.status, dds::qos_reliable(10))?,
@@ -429,6 +456,12 @@ fn startup_summary(
             p.side_point,
             p.scale
         ));
+        if p.tf {
+            lines.push(format!(
+                "poses in other frames carried into `{}` through /tf and /tf_static (moving transforms within {} s of the pose's stamp)",
+                p.frame, p.tf_tolerance_s
+            ));
+        }
     }
     if let Some(dir) = record {
         lines.push(format!("recording to {}", dir.display()));
