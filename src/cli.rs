@@ -19,6 +19,7 @@ mod export_lerobot;
 mod info;
 mod mock_hw;
 mod node;
+mod param;
 mod ping;
 mod record;
 mod replay;
@@ -63,6 +64,9 @@ enum Command {
     /// (faster than real time) under a cyclic schedule of conditions: limit margins, ticks
     /// on a bound, the posture drift of a redundant arm. Exits 1 when a joint left its limits.
     Endurance(endurance::EnduranceArgs),
+    /// Get or set a running node's parameter (like `ros2 param get/set`): e.g.
+    /// `crossym param set velocity_scale 0.5`.
+    Param(param::ParamArgs),
     /// A live one-line view of a running node's ~/status (code, condition, joint-state age,
     /// tick time, counters, last error). Exits 1 when no node answers within --timeout-s.
     Status(status::StatusArgs),
@@ -125,6 +129,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Stress(a) => stress::run(a),
         Command::Endurance(a) => endurance::run(a),
         Command::Status(a) => status::run(a),
+        Command::Param(a) => param::run(a),
         Command::Ping(a) => ping::run(a),
         Command::Symmetries(a) => symmetries::run(a),
         Command::Density(a) => density::run(a),

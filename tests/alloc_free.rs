@@ -787,8 +787,10 @@ fn task_head_and_its_node_tick_are_allocation_free() {
 }
 
 /// 120 node ticks along a path around `q_ref` with a condition every 20 ticks (scales drawn
-/// from `scales`): the gate's condition check and every tick allocate nothing (a tick the
-/// QP filtered may allocate only Clarabel's timers).
+/// from `scales`) and an operator request before every tick (pause, resume, reset, every
+/// runtime parameter, as the control thread applies them between ticks): the gate's
+/// condition check, the requests and every tick allocate nothing (a tick the QP filtered
+/// may allocate only Clarabel's timers).
 fn node_ticks_allocate_nothing(
     label: &str,
     kin: crossym::kinematics::Kinematics,
@@ -838,7 +840,9 @@ fn node_ticks_allocate_nothing(
                 "{label} condition check ({r:?}) allocated:\n{text}"
             );
         }
+        let request = operator_request(k, &core);
         let (rep, count, first) = count_allocs(|| {
+            let _ = core.apply(request);
             core.load_inputs(gate.inputs());
             core.tick(now, &mut cmd)
         });
@@ -852,4 +856,57 @@ fn node_ticks_allocate_nothing(
         }
     }
     assert!(fast > 0, "{label}: no tick took an allocation-free path");
+}
+
+/// The operator request applied before tick `k`: each kind in turn, with values inside and
+/// outside what the node accepts.
+fn operator_request(
+    k: usize,
+    core: &crossym::control::NodeCore,
+) -> crossym::control::OperatorRequest {
+    use crossym::control::OperatorRequest as R;
+    let max_t = core.runtime_bounds().max_stale_timeout_s;
+    match k % 12 {
+        0 => R::Pause(true),
+        1 => R::Pause(false),
+        2 => R::VelocityScale(0.5 + 0.04 * (k % 10) as f64),
+        3 => R::VelocityScale(f64::NAN),
+        4 => R::StaleTimeout(0.8 * max_t),
+        5 => R::Margin(0.01),
+        6 => R::Margin(1e9),
+        7 => R::AcceptUntrained(k % 24 == 7),
+        8 => R::DefaultCondition(crossym::symmetry::compose::Condition {
+            theta: 0.1,
+            scale: 1.0,
+            reflection: -1,
+        }),
+        9 => R::Reset,
+        10 => R::StaleTimeout(max_t),
+        _ => R::VelocityScale(1.0),
+    }
+}
+
+/// The singularity band's look-ahead (a second Jacobian, every chain's condition number by
+/// Jacobi rotations) allocates nothing: the planar left arm nearly stretched, moving toward
+/// and away from the singularity.
+#[test]
+fn singularity_band_is_allocation_free() {
+    use crossym::control::node::{SingularityBand, SingularityStatus};
+    use crossym::control::SingularitySettings;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cfg = crossym::config::Config::from_file(root.join("config/letters.toml")).unwrap();
+    let kin = cfg.load_robot().unwrap().kinematics;
+    let mut band = SingularityBand::new(SingularitySettings::default(), &kin);
+    let mut ws = kin.workspace();
+    let q = [0.5, 0.03, 0.02, 0.01, -0.5, -0.8, -0.6, -0.4];
+    kin.jacobian(&q, &mut ws);
+    let mut seen = Vec::new();
+    for sign in [-1.0, 1.0] {
+        let mut v = [0.0, sign * 0.3, sign * 0.2, sign * 0.1, 0.0, 0.0, 0.0, 0.0];
+        let (r, count, first) = count_allocs(|| band.apply(&kin, &ws, &q, &mut v, 0.01));
+        let text = first.map(|b| b.to_string()).unwrap_or_default();
+        assert_eq!(count, 0, "band ({r:?}) allocated:\n{text}");
+        seen.push(r.status);
+    }
+    assert_eq!(seen, [SingularityStatus::Halt, SingularityStatus::Clear]);
 }

@@ -215,3 +215,31 @@ pub fn pipeline(
 ) -> anyhow::Result<crossym::pipeline::Pipeline> {
     Ok(crossym::pipeline::build(cfg, kin, splits, &progress_bar())?)
 }
+
+/// Which running node a client command talks to (`crossym status`, `crossym param`): its
+/// config's `[node]` name and namespace, unless it was started with others.
+#[derive(Debug, Args)]
+pub struct NodeTarget {
+    /// Config of the node (its [node] name, namespace and topics).
+    #[arg(long, short, default_value = "config/letters.toml")]
+    pub config: PathBuf,
+    /// Node name, when it was started with --name.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Node namespace, when it was started with --namespace.
+    #[arg(long)]
+    pub namespace: Option<String>,
+}
+
+impl NodeTarget {
+    /// The node's settings as the target started it.
+    pub fn node_config(&self) -> anyhow::Result<crossym::control::NodeConfig> {
+        let cfg = Config::from_file(&self.config)?;
+        let over = NodeOverrides {
+            name: self.name.clone(),
+            namespace: self.namespace.clone(),
+            ..NodeOverrides::default()
+        };
+        Ok(crossym::setup::node_config(&cfg, &over)?)
+    }
+}

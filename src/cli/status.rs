@@ -2,29 +2,19 @@
 //! without the ROS tools (`ros2 topic echo`).
 
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use crossym::config::Config;
 use crossym::control::StatusCode;
 use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings};
 
-use crossym::setup::{node_config, NodeOverrides};
 
 /// Options of `crossym status`.
 #[derive(Debug, clap::Args)]
 pub struct StatusArgs {
-    /// Config of the node to watch (its [node] name, namespace and status topic).
-    #[arg(long, short, default_value = "config/letters.toml")]
-    pub config: PathBuf,
-    /// Node name, when it was started with --name.
-    #[arg(long)]
-    pub name: Option<String>,
-    /// Node namespace, when it was started with --namespace.
-    #[arg(long)]
-    pub namespace: Option<String>,
+    #[command(flatten)]
+    pub node: super::common::NodeTarget,
     /// Give up (exit 1) when no status arrives within this time (s), at start or later.
     #[arg(long, default_value_t = 5.0)]
     pub timeout_s: f64,
@@ -61,6 +51,18 @@ pub fn status_line(m: &msg::Status) -> String {
         m.rejected_conditions,
         m.active_constraints
     );
+    if m.paused {
+        s.push_str(" | PAUSED");
+    }
+    if m.velocity_scale != 1.0 {
+        s.push_str(&format!(" | velocity ×{}", m.velocity_scale));
+    }
+    if m.singularity_factor < 1.0 {
+        s.push_str(&format!(
+            " | near a singularity: κ {:.1}, speed ×{:.2}",
+            m.singularity_condition, m.singularity_factor
+        ));
+    }
     if !m.last_error.is_empty() {
         s.push_str(&format!(" | last error: {}", m.last_error));
     }
@@ -74,13 +76,7 @@ pub fn run(a: &StatusArgs) -> anyhow::Result<ExitCode> {
         "--timeout-s {} must be positive",
         a.timeout_s
     );
-    let cfg = Config::from_file(&a.config)?;
-    let over = NodeOverrides {
-        name: a.name.clone(),
-        namespace: a.namespace.clone(),
-        ..NodeOverrides::default()
-    };
-    let n = node_config(&cfg, &over)?;
+    let n = a.node.node_config()?;
     let topic = dds::expand_topic(&n.topics.status, &n.namespace, &n.name);
     let ctx = DdsSettings::from_env()?.context()?;
     let mut node = ctx

@@ -178,6 +178,10 @@ def main() -> int:
                 not_following_ticks=0,
                 tracking_warning_ticks=0,
                 tracking_error=0.001 * (k % 4),
+                paused=(k % 5 == 4),
+                velocity_scale=1.0 - 0.1 * (k % 2),
+                singularity_condition=2.0 + k,
+                singularity_factor=1.0,
             )))
     events.sort(key=lambda e: (e[0], e[1]))
 

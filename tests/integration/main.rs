@@ -27,6 +27,7 @@ mod recordings;
 mod redundancy;
 mod ros;
 mod safety;
+mod servo;
 mod sim;
 #[path = "../support/skip.rs"]
 mod skip;

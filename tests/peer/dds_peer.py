@@ -82,6 +82,10 @@ class Status(IdlStruct, typename="crossym_msgs::msg::dds_::Status_"):
     not_following_ticks: types.uint64 = 0
     tracking_warning_ticks: types.uint64 = 0
     tracking_error: types.float64 = 0.0
+    paused: bool = False
+    velocity_scale: types.float64 = 1.0
+    singularity_condition: types.float64 = 0.0
+    singularity_factor: types.float64 = 1.0
 
 
 # crossym_msgs/Status constants
@@ -719,7 +723,8 @@ def _cdr_expected_bytes():
     st = Status(header=Header(stamp=Time(sec=5, nanosec=6), frame_id=""), code=17, message="m", last_error="e",
                 active_constraints=1, rejected_joint_states=2, rejected_conditions=3, ticks=4, stale_ticks=5,
                 joint_state_age_s=0.25, tick_time_us=1.5, tick_time_max_us=2.5, condition=cond,
-                restarts=9, not_following_ticks=10, tracking_warning_ticks=11, tracking_error=0.125)
+                restarts=9, not_following_ticks=10, tracking_warning_ticks=11, tracking_error=0.125,
+                paused=True, velocity_scale=0.5, singularity_condition=12.5, singularity_factor=0.75)
     b = struct.pack("<iI", 5, 6)
     b = s(b, "")
     b += struct.pack("<b", 17)
@@ -730,6 +735,8 @@ def _cdr_expected_bytes():
     b = s(b, "x")
     b = align(b, 8) + struct.pack("<ddb", 0.5, 0.8, -1)
     b = align(b, 8) + struct.pack("<QQQd", 9, 10, 11, 0.125)
+    b += struct.pack("<?", True)
+    b = align(b, 8) + struct.pack("<ddd", 0.5, 12.5, 0.75)
     out.append(("Status", st, enc + b))
     return out
 

@@ -24,7 +24,8 @@ pub mod safety;
 pub mod severity;
 
 pub use node::{
-    Command, InputGate, Inputs, NodeConfig, NodeCore, NodeError, OutputMode, Rejection, StatusCode,
-    StatusSnapshot, TickReport, TopicNames, Trigger,
+    Command, InputGate, Inputs, NodeConfig, NodeCore, NodeError, OperatorRefusal, OperatorRequest,
+    OutputMode, Rejection, RuntimeBounds, SingularitySettings, StatusCode, StatusSnapshot,
+    TickReport, TopicNames, Trigger,
 };
 pub use severity::Severity;

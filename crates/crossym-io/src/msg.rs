@@ -474,6 +474,14 @@ pub struct Status {
     pub tracking_warning_ticks: u64,
     /// Position modes: largest |measured − commanded| over the joints at the last tick (rad or m).
     pub tracking_error: f64,
+    /// Paused by an operator (`~/pause`).
+    pub paused: bool,
+    /// `velocity_scale` in force.
+    pub velocity_scale: f64,
+    /// Worst condition number of the chains' task Jacobians at the last tick.
+    pub singularity_condition: f64,
+    /// Factor the singularity band applied at the last tick.
+    pub singularity_factor: f64,
 }
 
 ros_message!(
@@ -498,5 +506,9 @@ ros_message!(
         ("not_following_ticks", "uint64"),
         ("tracking_warning_ticks", "uint64"),
         ("tracking_error", "float64"),
+        ("paused", "bool"),
+        ("velocity_scale", "float64"),
+        ("singularity_condition", "float64"),
+        ("singularity_factor", "float64"),
     ]
 );

@@ -94,6 +94,11 @@ impl NodeLog {
         }
     }
 
+    /// Sets the filter (runtime parameter `log_level`).
+    pub fn set_min(&mut self, min: Severity) {
+        self.min = min;
+    }
+
     /// Logs one line (console and `/rosout`) when `severity` passes the filter.
     pub fn log(&mut self, severity: Severity, text: &str) {
         if severity < self.min {
@@ -384,6 +389,10 @@ mod tests {
             not_following_ticks: 0,
             tracking_warning_ticks: 0,
             tracking_error: 0.0,
+            paused: false,
+            velocity_scale: 1.0,
+            singularity_condition: 1.0,
+            singularity_factor: 1.0,
         };
         w.observe(&s, &mut log); // no state yet
         w.observe(&s, &mut log); // unchanged: nothing

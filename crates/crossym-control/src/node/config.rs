@@ -106,6 +106,11 @@ pub struct NodeConfig {
     /// `[node.task_pose]`: conditions also from an observed object pose (a perception
     /// node's `geometry_msgs/PoseStamped`); absent: from `symmetry_condition` only.
     pub task_pose: Option<super::task_pose::TaskPoseConfig>,
+    /// `[node.singularity]`: the slow-down band before singular postures.
+    pub singularity: super::singularity::SingularitySettings,
+    /// The policy's velocity is multiplied by this before the safety filter (0 < s ≤ 1;
+    /// settable at runtime).
+    pub velocity_scale: f64,
 }
 
 impl Default for NodeConfig {
@@ -128,6 +133,8 @@ impl Default for NodeConfig {
             realtime: None,
             trajectory_start_point: true,
             task_pose: None,
+            singularity: Default::default(),
+            velocity_scale: 1.0,
         }
     }
 }
@@ -209,6 +216,15 @@ impl NodeConfig {
             .map_err(|m| bad("default_condition", m.to_string()))?;
         if let Some(r) = &self.realtime {
             r.validate().map_err(|e| bad("realtime", e.to_string()))?;
+        }
+        self.singularity
+            .validate()
+            .map_err(|e| bad("singularity", e))?;
+        if !(self.velocity_scale > 0.0 && self.velocity_scale <= 1.0) {
+            return Err(bad(
+                "velocity_scale",
+                format!("{} must be in (0, 1]", self.velocity_scale),
+            ));
         }
         if let Some(p) = &self.task_pose {
             super::task_pose::TaskPoseMap::new(p.clone())

@@ -15,7 +15,9 @@ use super::feasibility::feasibility;
 use super::fit::{checked_domain, checked_policy};
 use super::gate::InputGate;
 use super::gate::Inputs;
+use super::operator::{OperatorRefusal, OperatorRequest, RuntimeBounds, RuntimeSettings};
 use super::rejection::Rejection;
+use super::singularity::{SingularityBand, SingularityReport, SingularityStatus};
 use super::stage::{OutputStage, PolicyOutput};
 use super::status::StatusCode;
 use super::status::StatusSnapshot;
@@ -74,6 +76,13 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     not_following_ticks: u64,
     tracking_warning_ticks: u64,
     tracking_error: f64,
+    // Operator controls: the singularity band, pause, the velocity scale, what may change.
+    band: SingularityBand,
+    singular: SingularityReport,
+    paused: bool,
+    paused_ticks: u64,
+    velocity_scale: f64,
+    bounds: RuntimeBounds,
     // Status.
     code: StatusCode,
     ticks: u64,
@@ -147,9 +156,27 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         let kws = kin.workspace();
         let pws = policy.workspace();
         let domain = checked_domain(&cfg, &policy)?;
+        // The trained box, for `accept_untrained_conditions` switched off at runtime.
+        let trained = NodeConfig {
+            accept_untrained_conditions: false,
+            ..cfg.clone()
+        }
+        .condition_domain(&policy)
+        .ok()
+        .flatten();
         let gate = InputGate::new(kin.joint_names(), &cfg)
             .with_domain(domain)
+            .with_trained_domain(trained)
             .with_feasibility(feasibility(&policy, &limits));
+        let bounds = RuntimeBounds {
+            max_stale_timeout_s: cfg.stale_timeout_s,
+            max_margin: limits
+                .iter()
+                .map(|l| 0.5 * (l.upper - l.lower))
+                .filter(|h| h.is_finite())
+                .fold(f64::INFINITY, f64::min),
+        };
+        let band = SingularityBand::new(cfg.singularity, &kin);
         Ok(Self {
             kws,
             pws,
@@ -183,6 +210,16 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             not_following_ticks: 0,
             tracking_warning_ticks: 0,
             tracking_error: 0.0,
+            band,
+            singular: SingularityReport {
+                status: SingularityStatus::Clear,
+                factor: 1.0,
+                condition: f64::NAN,
+            },
+            paused: false,
+            paused_ticks: 0,
+            velocity_scale: cfg.velocity_scale,
+            bounds,
             code: StatusCode::StaleJointStates,
             ticks: 0,
             stale_ticks: 0,
@@ -487,6 +524,10 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             self.stale_ticks = self.stale_ticks.saturating_add(1);
             return self.braking(now_s, out, StatusCode::StaleJointStates);
         }
+        if self.paused {
+            self.paused_ticks = self.paused_ticks.saturating_add(1);
+            return self.braking(now_s, out, StatusCode::Paused);
+        }
         // Position modes: a robot found not following stays held (braking, then holding the
         // last command) until a new condition is accepted.
         if self.halted {
@@ -532,6 +573,26 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             self.infeasible_ticks = self.infeasible_ticks.saturating_add(1);
         }
         self.output.apply(self.ticks, q, &mut self.v_policy);
+        // The operator's scale, then the singularity band (on the scaled command: its
+        // look-ahead follows the motion actually asked for).
+        for v in self.v_policy.iter_mut() {
+            *v *= self.velocity_scale;
+        }
+        self.singular = if infeasible {
+            SingularityReport {
+                status: SingularityStatus::Clear,
+                factor: 1.0,
+                condition: f64::INFINITY,
+            }
+        } else {
+            self.band.apply(
+                &self.kin,
+                &self.kws,
+                q,
+                &mut self.v_policy,
+                self.cfg.period_s,
+            )
+        };
         let jac_ok = self.kws.jac.iter().all(|x| x.is_finite());
         let barrier = match self.min_ee_distance {
             Some(d_min) if jac_ok => {
@@ -584,7 +645,14 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             self.nonfinite_ticks = self.nonfinite_ticks.saturating_add(1);
         }
         let rejected = inputs.joint_state_rejected || inputs.condition_rejected;
-        self.code = tick_code(rejected, &report, infeasible, restarted, lagging);
+        self.code = tick_code(
+            rejected,
+            &report,
+            infeasible,
+            restarted,
+            lagging,
+            self.singular.status,
+        );
         TickReport {
             code: self.code,
             publish: true,
@@ -630,6 +698,80 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         lagging
     }
 
+    /// What runtime requests may ask for (fixed at start; for the callers' checks).
+    pub fn runtime_bounds(&self) -> RuntimeBounds {
+        self.bounds
+    }
+
+    /// The runtime settings in force.
+    pub fn runtime(&self) -> RuntimeSettings {
+        RuntimeSettings {
+            paused: self.paused,
+            velocity_scale: self.velocity_scale,
+            stale_timeout_s: self.cfg.stale_timeout_s,
+            accept_untrained: self.gate.domain.is_none(),
+            margin: self.filter.settings().margin,
+        }
+    }
+
+    /// The singularity band's outcome at the last tick.
+    pub fn singularity(&self) -> SingularityReport {
+        self.singular
+    }
+
+    /// Applies an operator's request between two ticks (checked against
+    /// [`Self::runtime_bounds`] again; refused: nothing changes). Allocation-free.
+    ///
+    /// Resume and reset start position modes again from the measured state (the commands'
+    /// anchor is re-read, not continued); reset also clears the `ROBOT_NOT_FOLLOWING` latch
+    /// and its restart count. `default_condition` goes through the input gate like a
+    /// condition message and is in force from the next tick.
+    pub fn apply(&mut self, r: OperatorRequest) -> Result<(), OperatorRefusal> {
+        self.bounds.check(&r)?;
+        match r {
+            OperatorRequest::Pause(p) => {
+                if self.paused && !p {
+                    self.has_hold = false;
+                }
+                self.paused = p;
+            }
+            OperatorRequest::Reset => {
+                self.halted = false;
+                self.has_hold = false;
+                self.restart_times.fill(f64::NEG_INFINITY);
+                self.tracking_high_since = None;
+            }
+            OperatorRequest::VelocityScale(s) => self.velocity_scale = s,
+            OperatorRequest::StaleTimeout(t) => {
+                self.cfg.stale_timeout_s = t;
+                self.gate.set_stale_timeout(t);
+                self.filter
+                    .set_max_state_age(t, self.bounds.max_stale_timeout_s);
+            }
+            OperatorRequest::AcceptUntrained(a) => {
+                self.cfg.accept_untrained_conditions = a;
+                self.gate.set_accept_untrained(a);
+            }
+            OperatorRequest::Margin(m) => {
+                self.cfg.safety.margin = m;
+                self.filter.set_margin(m);
+            }
+            OperatorRequest::DefaultCondition(c) => {
+                let m = msg::SymmetryCondition {
+                    header: msg::Header::default(),
+                    theta: c.theta,
+                    scale: c.scale,
+                    reflection: c.reflection,
+                };
+                self.gate
+                    .on_condition(&m)
+                    .map_err(|rejection| OperatorRefusal::Gate { rejection })?;
+                self.cfg.default_condition = c;
+            }
+        }
+        Ok(())
+    }
+
     /// Records the caller-measured duration of the last tick (µs).
     pub fn record_tick_time(&mut self, us: f64) {
         if us.is_finite() {
@@ -660,6 +802,10 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             tick_time_us: self.tick_time_us,
             tick_time_max_us: self.tick_time_max_us,
             condition: self.gate.inputs.condition,
+            paused: self.paused,
+            velocity_scale: self.velocity_scale,
+            singularity_condition: self.singular.condition,
+            singularity_factor: self.singular.factor,
         }
     }
 }
@@ -712,13 +858,14 @@ fn clamp_to(l: &JointLimits, x: f64) -> f64 {
 
 /// The status of a tick that published a filtered command, by priority: rejected input,
 /// the filter's fallback, an infeasible condition, a policy fault, a restart, a tracking
-/// warning, a joint on a bound.
+/// warning, the singularity band (halt, then deceleration), a joint on a bound.
 fn tick_code(
     rejected: bool,
     report: &SafetyReport,
     infeasible: bool,
     restarted: bool,
     lagging: bool,
+    singular: SingularityStatus,
 ) -> StatusCode {
     if rejected {
         StatusCode::InvalidInput
@@ -732,6 +879,10 @@ fn tick_code(
         StatusCode::RestartedFromMeasured
     } else if lagging {
         StatusCode::TrackingError
+    } else if singular == SingularityStatus::Halt {
+        StatusCode::HaltForSingularity
+    } else if singular == SingularityStatus::Decelerate {
+        StatusCode::DecelerateForSingularity
     } else if report.active > 0 {
         StatusCode::JointBound
     } else {

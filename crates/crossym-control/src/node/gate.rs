@@ -94,6 +94,8 @@ pub struct InputGate {
     stale_timeout_s: f64,
     check_stamps: bool,
     pub(super) domain: Option<ConditionDomain>,
+    /// The policy's trained box, enforced unless untrained conditions are accepted.
+    trained: Option<ConditionDomain>,
     feasibility: Option<Box<ConditionFeasibility>>,
     pub(super) inputs: Inputs,
 }
@@ -108,6 +110,7 @@ impl InputGate {
             stale_timeout_s: cfg.stale_timeout_s,
             check_stamps: cfg.check_stamps,
             domain: None,
+            trained: None,
             feasibility: None,
             inputs: Inputs::new(n, cfg.default_condition),
         }
@@ -131,6 +134,23 @@ impl InputGate {
     /// Whether the gate checks conditions for feasibility (a canonicalised policy).
     pub fn checks_feasibility(&self) -> bool {
         self.feasibility.is_some()
+    }
+
+    /// The policy's trained box (enforced after `set_accept_untrained(false)`).
+    pub fn with_trained_domain(mut self, trained: Option<ConditionDomain>) -> Self {
+        self.trained = trained;
+        self
+    }
+
+    /// Accepts conditions outside the trained box (`true`) or enforces it again (runtime
+    /// parameter `accept_untrained_conditions`); allocation-free.
+    pub fn set_accept_untrained(&mut self, accept: bool) {
+        self.domain = if accept { None } else { self.trained };
+    }
+
+    /// Sets the stale timeout used by the stamp checks (runtime parameter).
+    pub fn set_stale_timeout(&mut self, s: f64) {
+        self.stale_timeout_s = s;
     }
 
     /// The condition domain this gate enforces, if any.

@@ -35,8 +35,10 @@ mod error;
 mod feasibility;
 mod fit;
 mod gate;
+mod operator;
 mod rejection;
 mod rigid;
+mod singularity;
 mod stage;
 mod status;
 mod task_pose;
@@ -48,8 +50,12 @@ pub use self::core::NodeCore;
 pub use self::error::NodeError;
 pub use self::feasibility::{ConditionFeasibility, Infeasibility};
 pub use self::gate::{InputGate, Inputs, SHUTDOWN_SEQUENCE_BIT};
+pub use self::operator::{OperatorRefusal, OperatorRequest, RuntimeBounds, RuntimeSettings};
 pub use self::rejection::Rejection;
 pub use self::rigid::{Quat, Rigid};
+pub use self::singularity::{
+    SingularityBand, SingularityReport, SingularitySettings, SingularityStatus,
+};
 pub use self::stage::{OutputStage, PolicyOutput};
 pub use self::status::{StatusCode, StatusSnapshot, TickReport};
 pub use self::task_pose::{

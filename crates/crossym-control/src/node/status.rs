@@ -14,6 +14,10 @@ use crate::safety::SafetyStatus;
 pub enum StatusCode {
     /// The (filtered) policy output was commanded.
     NoWarning = 0,
+    /// Moving toward a singular posture inside the band: the command is scaled down.
+    DecelerateForSingularity = 1,
+    /// At `singularity.stop`: the command toward the singularity is zero.
+    HaltForSingularity = 2,
     /// The end-effector distance barrier shaped the command.
     DecelerateForCollision = 3,
     /// At least one joint's command sits on a bound.
@@ -43,6 +47,8 @@ pub enum StatusCode {
     /// Position modes: the measured state has been farther than `safety.tracking_warning`
     /// from the command in effect for longer than `safety.tracking_window_s`.
     TrackingError = 24,
+    /// Paused by an operator (`~/pause`): braking to zero, then holding.
+    Paused = 25,
 }
 
 impl StatusCode {
@@ -50,6 +56,8 @@ impl StatusCode {
     pub fn constant_name(self) -> &'static str {
         match self {
             StatusCode::NoWarning => "NO_WARNING",
+            StatusCode::DecelerateForSingularity => "DECELERATE_FOR_APPROACHING_SINGULARITY",
+            StatusCode::HaltForSingularity => "HALT_FOR_SINGULARITY",
             StatusCode::DecelerateForCollision => "DECELERATE_FOR_COLLISION",
             StatusCode::JointBound => "JOINT_BOUND",
             StatusCode::StaleJointStates => "STALE_JOINT_STATES",
@@ -61,6 +69,7 @@ impl StatusCode {
             StatusCode::RestartedFromMeasured => "RESTARTED_FROM_MEASURED",
             StatusCode::RobotNotFollowing => "ROBOT_NOT_FOLLOWING",
             StatusCode::TrackingError => "TRACKING_ERROR",
+            StatusCode::Paused => "PAUSED",
         }
     }
 
@@ -70,8 +79,10 @@ impl StatusCode {
     }
 
     /// Every code, for table checks.
-    pub const ALL: [StatusCode; 12] = [
+    pub const ALL: [StatusCode; 15] = [
         StatusCode::NoWarning,
+        StatusCode::DecelerateForSingularity,
+        StatusCode::HaltForSingularity,
         StatusCode::DecelerateForCollision,
         StatusCode::JointBound,
         StatusCode::StaleJointStates,
@@ -83,12 +94,19 @@ impl StatusCode {
         StatusCode::RestartedFromMeasured,
         StatusCode::RobotNotFollowing,
         StatusCode::TrackingError,
+        StatusCode::Paused,
     ];
 
     /// Human-readable text of the code.
     pub fn message(self) -> &'static str {
         match self {
             StatusCode::NoWarning => "ok",
+            StatusCode::DecelerateForSingularity => {
+                "approaching a singular posture: command scaled down"
+            }
+            StatusCode::HaltForSingularity => {
+                "at the singularity stop: no motion toward the singular posture"
+            }
             StatusCode::DecelerateForCollision => "end-effector distance barrier active",
             StatusCode::JointBound => "joint command on a velocity/acceleration/position bound",
             StatusCode::StaleJointStates => "no recent joint state: zero velocity / hold",
@@ -108,6 +126,7 @@ impl StatusCode {
             StatusCode::TrackingError => {
                 "robot lags its commands by more than safety.tracking_warning"
             }
+            StatusCode::Paused => "paused by an operator (~/pause): braking, then holding",
         }
     }
 }
@@ -170,6 +189,14 @@ pub struct StatusSnapshot {
     pub tick_time_max_us: f64,
     /// Condition of the last tick.
     pub condition: Condition,
+    /// Paused by an operator.
+    pub paused: bool,
+    /// `velocity_scale` in force.
+    pub velocity_scale: f64,
+    /// Worst condition number of the chains' task Jacobians at the last tick.
+    pub singularity_condition: f64,
+    /// Factor the singularity band applied at the last tick.
+    pub singularity_factor: f64,
 }
 
 impl StatusSnapshot {
@@ -182,7 +209,7 @@ impl StatusSnapshot {
         msg::Status {
             header: header.clone(),
             code: self.code as i8,
-            message: self.message.to_string(),
+            message: format!("{}: {}", self.code.constant_name(), self.message),
             last_error: self
                 .last_error
                 .map(|r| r.explain(joint_names))
@@ -205,6 +232,10 @@ impl StatusSnapshot {
             not_following_ticks: self.not_following_ticks,
             tracking_warning_ticks: self.tracking_warning_ticks,
             tracking_error: self.tracking_error,
+            paused: self.paused,
+            velocity_scale: self.velocity_scale,
+            singularity_condition: self.singularity_condition,
+            singularity_factor: self.singularity_factor,
         }
     }
 }

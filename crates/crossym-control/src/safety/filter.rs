@@ -167,6 +167,18 @@ impl<R: BoundRules> SafetyFilter<R> {
         })
     }
 
+    /// Sets the margin kept inside the position limits from the next tick on (the caller
+    /// checks it: [`crate::node::RuntimeBounds`]); allocation-free.
+    pub fn set_margin(&mut self, margin: f64) {
+        self.settings.margin = margin;
+    }
+
+    /// Sets the largest joint-state age the bounds cover, at most the one the filter was
+    /// built with (its history is sized for that); a larger value is capped.
+    pub fn set_max_state_age(&mut self, s: f64, built_with: f64) {
+        self.settings.max_state_age_s = s.min(built_with);
+    }
+
     /// The validated settings.
     pub fn settings(&self) -> &SafetySettings {
         &self.settings

@@ -15,6 +15,7 @@
 //! Per-tick functions take caller-owned workspaces and allocate nothing.
 
 pub mod chain;
+pub mod conditioning;
 pub mod error;
 pub mod model;
 pub mod null_space;

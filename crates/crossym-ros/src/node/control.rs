@@ -23,7 +23,7 @@
 
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::SyncSender;
+use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
@@ -35,8 +35,8 @@ use super::stats::{span_us, Histogram, TickStats};
 use super::Endpoints;
 use crate::dds;
 use crossym_control::node::{
-    Command, NodeCore, PoseRejection, Rejection, StatusSnapshot, TaskPoseMap, TfBuffer, TfError,
-    Trigger,
+    Command, NodeCore, OperatorRefusal, OperatorRequest, PoseRejection, Rejection, StatusSnapshot,
+    TaskPoseMap, TfBuffer, TfError, Trigger,
 };
 use crossym_io::msg;
 use crossym_math::symmetry::compose::Condition;
@@ -70,6 +70,15 @@ pub(super) enum ToIo {
     PoseRejected(PoseRejection),
     /// A TF edge was refused (non-finite, zero rotation, its own parent).
     TfRefused(TfError),
+    /// An operator request was applied or refused.
+    Operator {
+        /// The request.
+        request: OperatorRequest,
+        /// `parameter` or `service`.
+        source: &'static str,
+        /// Refused: why (nothing changed).
+        result: Result<(), OperatorRefusal>,
+    },
     /// The conditions now come from the other source (`true`: the task pose).
     ConditionSource {
         /// From the task pose (else from `symmetry_condition`).
@@ -96,6 +105,9 @@ pub(super) struct Links {
     pub(super) rec: Option<Recorder>,
     /// Set by the I/O thread on a signal; the control thread then sends its final command.
     pub(super) stop: Arc<AtomicBool>,
+    /// Operator requests from the I/O thread (with where they came from), applied between
+    /// ticks.
+    pub(super) from_io: Receiver<(OperatorRequest, &'static str)>,
 }
 
 /// The control thread's state (moved into the thread by [`ControlThread::run`]).
@@ -176,7 +188,6 @@ impl ControlThread {
     pub(super) fn run(mut self) -> TickStats {
         let cfg = self.core.config().clone();
         let period = Duration::from_secs_f64(cfg.period_s);
-        let stale_after = Duration::from_secs_f64(cfg.stale_timeout_s.max(cfg.period_s));
         let status_period = Duration::from_secs_f64(cfg.status_period_s);
         let mut cmd = self.core.command();
         let mut stats = TickStats::default();
@@ -205,6 +216,7 @@ impl ControlThread {
                 }
                 continue;
             }
+            self.operator_requests();
             let t0 = Instant::now();
             let now_ns = dds::wall_time_ns();
             let fresh = seq != last_seq;
@@ -236,7 +248,10 @@ impl ControlThread {
                 // A tick per joint state; without one for the stale timeout the ticks go on
                 // at the period (they command the stale-input stop). A fallback at one period
                 // would race the driver's next state and double the commands.
-                Trigger::JointStates if fresh => t0 + stale_after,
+                Trigger::JointStates if fresh => {
+                    let stale = self.core.runtime().stale_timeout_s.max(cfg.period_s);
+                    t0 + Duration::from_secs_f64(stale)
+                }
                 Trigger::JointStates => t0 + period,
             };
             if t0 >= next_status {
@@ -358,6 +373,18 @@ impl ControlThread {
                 self.on_condition(c);
             }
             Err(r) => self.tell(ToIo::PoseRejected(r)),
+        }
+    }
+
+    /// Applies the operator requests waiting (between two ticks) and reports each.
+    fn operator_requests(&mut self) {
+        while let Ok((request, source)) = self.links.from_io.try_recv() {
+            let result = self.core.apply(request);
+            self.tell(ToIo::Operator {
+                request,
+                source,
+                result,
+            });
         }
     }
 

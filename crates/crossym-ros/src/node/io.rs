@@ -5,13 +5,15 @@
 //! read from the status snapshots (stale ↔ fresh, safety fallbacks, policy faults).
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::Receiver;
+use std::sync::mpsc::{Receiver, SyncSender};
 use std::time::Duration;
 
 use super::control::ToIo;
+use super::params::Operator;
+use super::services::{Services, SetBoolResponse, TriggerResponse};
 use crate::dds;
 use crate::log::{NodeLog, Severity, StatusWatch};
-use crossym_control::node::InputGate;
+use crossym_control::node::{InputGate, OperatorRequest};
 
 /// The I/O thread's state: the log and what it needs to explain an event.
 pub(super) struct IoSide {
@@ -23,6 +25,14 @@ pub(super) struct IoSide {
     pub(super) watch: StatusWatch,
     pub(super) from_control: Receiver<ToIo>,
     pub(super) log: NodeLog,
+    /// Accepted parameter sets (from ros2-client's parameter service).
+    pub(super) ops: Receiver<Operator>,
+    /// Operator requests for the control thread.
+    pub(super) to_control: SyncSender<(OperatorRequest, &'static str)>,
+    /// `~/pause`, `~/reset`.
+    pub(super) services: Services,
+    /// Whether the last `~/pause` request paused.
+    pub(super) paused: bool,
 }
 
 impl IoSide {
@@ -64,6 +74,19 @@ impl IoSide {
                 Severity::Warn,
                 &format!("rejected task_pose (keeping the condition in force): {r}"),
             ),
+            ToIo::Operator {
+                request,
+                source,
+                result,
+            } => match result {
+                Ok(()) => self
+                    .log
+                    .log(Severity::Info, &format!("{source}: {} (applied)", describe(&request))),
+                Err(e) => self.log.log(
+                    Severity::Warn,
+                    &format!("{source}: {} refused: {e}", describe(&request)),
+                ),
+            },
             ToIo::TfRefused(e) => self.log.limited(
                 "tf",
                 Severity::Warn,
@@ -88,10 +111,79 @@ impl IoSide {
         }
     }
 
-    /// Logs every event the control thread has sent so far.
+    /// Logs every event the control thread has sent so far; passes the accepted parameter
+    /// sets on.
     pub(super) fn drain(&mut self) {
+        while let Ok(op) = self.ops.try_recv() {
+            match op {
+                Operator::LogLevel(l) => {
+                    self.log.set_min(l);
+                    self.log.log(
+                        Severity::Info,
+                        &format!("parameter: log_level = {l:?} (applied)"),
+                    );
+                }
+                Operator::Node { request, source } => {
+                    self.forward(request, source);
+                }
+            }
+        }
         while let Ok(e) = self.from_control.try_recv() {
             self.on_event(e);
+        }
+    }
+
+    /// Hands a request to the control thread; false when its queue is full.
+    fn forward(&mut self, request: OperatorRequest, source: &'static str) -> bool {
+        if self.to_control.try_send((request, source)).is_err() {
+            self.log.log(
+                Severity::Warn,
+                &format!(
+                    "{source}: {} dropped: the control thread's queue is full",
+                    describe(&request)
+                ),
+            );
+            return false;
+        }
+        true
+    }
+
+    /// `~/pause` (`data`: pause or resume) from `caller`.
+    fn on_pause(&mut self, data: bool, caller: &str) -> SetBoolResponse {
+        self.log
+            .log(Severity::Info, &format!("~/pause {data} from {caller}"));
+        let was = self.paused;
+        if !self.forward(OperatorRequest::Pause(data), "service") {
+            return SetBoolResponse {
+                success: false,
+                message: "not applied: the control thread's queue is full".into(),
+            };
+        }
+        self.paused = data;
+        let message = match (was, data) {
+            (false, true) => "pausing: braking to zero at the acceleration limits, then holding",
+            (true, true) => "already paused",
+            (true, false) => "resuming: the policy from the measured state",
+            (false, false) => "not paused: nothing to resume",
+        };
+        SetBoolResponse {
+            success: true,
+            message: message.into(),
+        }
+    }
+
+    /// `~/reset` from `caller`.
+    fn on_reset(&mut self, caller: &str) -> TriggerResponse {
+        self.log
+            .log(Severity::Info, &format!("~/reset from {caller}"));
+        let success = self.forward(OperatorRequest::Reset, "service");
+        TriggerResponse {
+            success,
+            message: if success {
+                "reset: a latched ROBOT_NOT_FOLLOWING is cleared; commands start again from the measured state".into()
+            } else {
+                "not applied: the control thread's queue is full".into()
+            },
         }
     }
 
@@ -105,6 +197,24 @@ impl IoSide {
         loop {
             tokio::select! {
                 _ = &mut signals => break,
+                r = self.services.pause.async_receive_request() => match r {
+                    Ok((id, req)) => {
+                        let resp = self.on_pause(req.data, &format!("{:?}", id.writer_gid));
+                        if let Err(e) = self.services.pause.async_send_response(id, resp).await {
+                            self.log.log(Severity::Warn, &format!("~/pause: response not sent: {e:?}"));
+                        }
+                    }
+                    Err(e) => self.log.limited("service", Severity::Warn, &format!("~/pause: bad request: {e:?}")),
+                },
+                r = self.services.reset.async_receive_request() => match r {
+                    Ok((id, _)) => {
+                        let resp = self.on_reset(&format!("{:?}", id.writer_gid));
+                        if let Err(e) = self.services.reset.async_send_response(id, resp).await {
+                            self.log.log(Severity::Warn, &format!("~/reset: response not sent: {e:?}"));
+                        }
+                    }
+                    Err(e) => self.log.limited("service", Severity::Warn, &format!("~/reset: bad request: {e:?}")),
+                },
                 _ = poll.tick() => {
                     self.drain();
                     if stop.load(Ordering::Acquire) {
@@ -113,5 +223,22 @@ impl IoSide {
                 }
             }
         }
+    }
+}
+
+/// One line for an operator request.
+fn describe(r: &OperatorRequest) -> String {
+    match r {
+        OperatorRequest::Pause(true) => "pause".into(),
+        OperatorRequest::Pause(false) => "resume".into(),
+        OperatorRequest::Reset => "reset".into(),
+        OperatorRequest::VelocityScale(s) => format!("velocity_scale = {s}"),
+        OperatorRequest::StaleTimeout(t) => format!("stale_timeout_s = {t}"),
+        OperatorRequest::AcceptUntrained(a) => format!("accept_untrained_conditions = {a}"),
+        OperatorRequest::Margin(m) => format!("safety.margin = {m}"),
+        OperatorRequest::DefaultCondition(c) => format!(
+            "default_condition = [θ {}, λ {}, σ {:+}]",
+            c.theta, c.scale, c.reflection
+        ),
     }
 }

@@ -20,7 +20,9 @@
 
 mod control;
 mod io;
+mod params;
 mod record;
+mod services;
 mod stats;
 
 use std::path::Path;
@@ -29,11 +31,11 @@ use std::sync::Arc;
 use std::thread;
 use std::time::Duration;
 
-use ros2_client::{NodeOptions, ParameterValue};
-
 use self::control::{CommandPublisher, ControlThread, Links};
 use self::io::IoSide;
+use self::params::Operator;
 use self::record::{start_recorder, Recorder};
+use self::services::Services;
 pub use self::stats::{HopStats, TickStats};
 use super::dds::{self, DdsError, DdsSettings};
 use super::idle_poll::IdlePoll;
@@ -74,16 +76,23 @@ pub fn run(
         None => None,
     };
     let ctx = settings.context()?;
+    // Operator requests: parameter sets and service calls → the I/O thread (logs them) →
+    // the control thread (applies them between ticks).
+    let (ops_tx, ops_rx) = std::sync::mpsc::sync_channel::<Operator>(64);
+    let (to_control, from_io) = std::sync::mpsc::sync_channel(64);
+    let started = Arc::new(AtomicBool::new(false));
     let mut node = ctx
         .new_node(
             dds::node_name(&cfg.namespace, &cfg.name)?,
-            node_options(&core),
+            params::node_options(&core, ops_tx, started.clone()),
         )
         .map_err(|e| DdsError::Create {
             what: format!("node {}/{}", cfg.namespace, cfg.name),
             message: format!("{e:?}"),
         })?;
     let ends = Endpoints::create(&mut node, &cfg)?;
+    let services = Services::create(&mut node)?;
+    started.store(true, Ordering::Release);
     let logger = node.logging_handle();
     let spinner = node.spinner().map_err(|e| DdsError::Create {
         what: "spinner".into(),
@@ -116,6 +125,7 @@ pub fn run(
         names: names.clone(),
         rec: recorder.as_ref().map(|r| r.0.clone()),
         stop: stop.clone(),
+        from_io,
     };
     let (control, waker) =
         ControlThread::new(core, ends, links).map_err(|e| NodeRunError::Runtime {
@@ -139,6 +149,10 @@ pub fn run(
         watch: StatusWatch::default(),
         from_control,
         log,
+        ops: ops_rx,
+        to_control,
+        services,
+        paused: false,
     };
     runtime.block_on(io.serve(spinner, &stop));
     stop.store(true, Ordering::Release);
@@ -154,58 +168,6 @@ pub fn run(
     drop(node);
     runtime.shutdown_timeout(Duration::from_millis(200));
     stats
-}
-
-/// The node's options: read-only parameters describing its configuration, rosout and the
-/// parameter services.
-fn node_options(core: &NodeCore) -> NodeOptions {
-    let cfg = core.config();
-    let mut params: Vec<(&str, ParameterValue)> = vec![
-        ("period_s", ParameterValue::Double(cfg.period_s)),
-        (
-            "stale_timeout_s",
-            ParameterValue::Double(cfg.stale_timeout_s),
-        ),
-        ("check_stamps", ParameterValue::Boolean(cfg.check_stamps)),
-        (
-            "output",
-            ParameterValue::String(format!("{:?}", cfg.output).to_lowercase()),
-        ),
-        (
-            "trigger",
-            ParameterValue::String(format!("{:?}", cfg.trigger).to_lowercase()),
-        ),
-        (
-            "joint_names",
-            ParameterValue::StringArray(core.joint_names().to_vec()),
-        ),
-        (
-            "topics.command",
-            ParameterValue::String(cfg.topics.command.clone()),
-        ),
-    ];
-    if let Some(p) = &cfg.policy {
-        params.push(("policy", ParameterValue::String(p.display().to_string())));
-    }
-    let mut options = NodeOptions::new()
-        .enable_rosout(true)
-        .start_parameter_services(true);
-    for (k, v) in &params {
-        options = options.declare_parameter(k, v.clone());
-    }
-    // Parameters are read-only at runtime: the tick's buffers and the QP are set up once.
-    let fixed: Vec<(String, ParameterValue)> = params
-        .into_iter()
-        .map(|(k, v)| (k.to_string(), v))
-        .collect();
-    options.parameter_validator(Box::new(move |name, value| {
-        match fixed.iter().find(|(k, _)| k == name) {
-            Some((_, v)) if v == value => Ok(()),
-            _ => Err(format!(
-                "`{name}` is read-only at runtime: set it in the TOML config or on the command line"
-            )),
-        }
-    }))
 }
 
 /// The TF topics' readers.
@@ -463,6 +425,29 @@ fn startup_summary(
             ));
         }
     }
+    let band = &cfg.singularity;
+    lines.push(if band.enabled {
+        format!(
+            "singularity band: commands toward a singular posture slow down from condition number {} and stop at {} ([node.singularity])",
+            band.slowdown, band.stop
+        )
+    } else {
+        "singularity band off ([node.singularity] enabled = false)".to_string()
+    });
+    let services: Vec<String> = services::NAMES
+        .iter()
+        .map(|(n, t)| format!("{} ({t})", topic(&format!("~/{n}"))))
+        .collect();
+    let settable: Vec<String> = params::SETTABLE
+        .iter()
+        .map(|(n, t)| format!("{n} ({t})"))
+        .collect();
+    lines.push(format!(
+        "services: {}; settable parameters (ros2 param set, crossym param set): {}; velocity_scale {}",
+        services.join(", "),
+        settable.join(", "),
+        cfg.velocity_scale
+    ));
     if let Some(dir) = record {
         lines.push(format!("recording to {}", dir.display()));
     }

@@ -65,6 +65,9 @@ pub struct EnduranceReport {
     pub drift_by_tenth: Vec<f64>,
     /// Largest `|qⱼ − rⱼ|` over the run, per joint (rad or m).
     pub max_excursion: Vec<f64>,
+    /// Largest condition number of a chain's task Jacobian over the run (the singularity
+    /// band's measure).
+    pub max_condition: f64,
 }
 
 impl EnduranceReport {
@@ -78,7 +81,7 @@ impl std::fmt::Display for EnduranceReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} ticks: on a bound {:.2} %, other status {} {:?}, outside limits {}; conditions {} accepted, {} rejected{}; min limit margin {:.1} % of range ({}); posture drift max {:.3} rad, final {:.3} rad, by tenth [{}]; largest |q − rest| per joint [{}]",
+            "{} ticks: on a bound {:.2} %, other status {} {:?}, outside limits {}; conditions {} accepted, {} rejected{}; min limit margin {:.1} % of range ({}); posture drift max {:.3} rad, final {:.3} rad, by tenth [{}]; largest |q − rest| per joint [{}]; largest condition number {:.1}",
             self.ticks,
             100.0 * self.bound_share(),
             self.other_status_ticks,
@@ -102,7 +105,8 @@ impl std::fmt::Display for EnduranceReport {
                 .iter()
                 .map(|d| format!("{d:.2}"))
                 .collect::<Vec<_>>()
-                .join(", ")
+                .join(", "),
+            self.max_condition
         )
     }
 }
@@ -135,6 +139,7 @@ pub fn run(core: &mut NodeCore, start: &[f64], settings: &EnduranceSettings) -> 
         final_drift: 0.0,
         drift_by_tenth: vec![0.0; 10],
         max_excursion: vec![0.0; n],
+        max_condition: 1.0,
     };
     let mut tenth_count = [0u64; 10];
     let mut nq = DMatrix::<f64>::zeros(n, n);
@@ -172,6 +177,10 @@ pub fn run(core: &mut NodeCore, start: &[f64], settings: &EnduranceSettings) -> 
         }
         let rep = core.tick(t, &mut cmd);
         r.ticks += 1;
+        let kappa = core.singularity().condition;
+        if kappa.is_finite() || kappa == f64::INFINITY {
+            r.max_condition = r.max_condition.max(kappa);
+        }
         match rep.code {
             StatusCode::NoWarning | StatusCode::JointBound => {}
             code => {
