@@ -19,9 +19,15 @@ fn main() -> ExitCode {
         );
     }
     // Libraries log at warn (RustDDS at error) unless RUST_LOG names them: `RUST_LOG=info`
-    // raises crossym's own lines, not 1500 lines of DDS internals.
+    // raises crossym's own lines, not 1500 lines of DDS internals. ros2-client's service
+    // wrapper warns on every request from a client that sends no request identity in the
+    // inline QoS (any plain DDS writer; rmw_fastrtps sends one) and answers it anyway.
     let mut filter = std::env::var("RUST_LOG").unwrap_or_else(|_| "warn".into());
-    for (lib, level) in [("rustdds", "error"), ("ros2_client", "warn")] {
+    for (lib, level) in [
+        ("rustdds", "error"),
+        ("ros2_client", "warn"),
+        ("ros2_client::service::wrappers", "error"),
+    ] {
         if !filter.contains(lib) {
             filter.push_str(&format!(",{lib}={level}"));
         }

@@ -9,7 +9,6 @@ use crossym::control::StatusCode;
 use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings};
 
-
 /// Options of `crossym status`.
 #[derive(Debug, clap::Args)]
 pub struct StatusArgs {

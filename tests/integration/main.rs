@@ -19,6 +19,7 @@ mod lerobot;
 mod lift_compose;
 mod morpho_robots;
 mod operator;
+mod operator_services;
 mod physics;
 mod pins;
 mod policy;

@@ -126,6 +126,10 @@ impl IoSide {
                 Operator::Node { request, source } => {
                     self.forward(request, source);
                 }
+                Operator::Refused { name, reason } => self.log.log(
+                    Severity::Warn,
+                    &format!("parameter: set of `{name}` refused: {reason}"),
+                ),
             }
         }
         while let Ok(e) = self.from_control.try_recv() {

@@ -18,7 +18,7 @@ use crossym_math::symmetry::compose::Condition;
 
 /// What an operator asked for, on its way from a service or parameter callback to the I/O
 /// thread.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(super) enum Operator {
     /// A request the control thread applies; `source` says where it came from.
     Node {
@@ -29,6 +29,13 @@ pub(super) enum Operator {
     },
     /// `log_level`: the I/O thread's log filter.
     LogLevel(Severity),
+    /// A parameter set was refused (already answered; logged).
+    Refused {
+        /// The parameter.
+        name: String,
+        /// The reason given to the caller.
+        reason: String,
+    },
 }
 
 /// The settable parameters and the type each takes, for the startup log and refusals.
@@ -166,6 +173,7 @@ pub(super) fn node_options(
         options = options.declare_parameter(k, v.clone());
     }
     let bounds = core.runtime_bounds();
+    let refusals = ops.clone();
     // A read-only parameter accepts only its declared value (the declaration itself).
     let declared: Vec<(String, ParameterValue)> = params
         .into_iter()
@@ -173,13 +181,22 @@ pub(super) fn node_options(
         .collect();
     options
         .parameter_validator(Box::new(move |name, value| {
-            match request_of(name, value, &bounds)? {
-                Some(_) => Ok(()),
-                None => match declared.iter().find(|(k, _)| k == name) {
+            let verdict = match request_of(name, value, &bounds) {
+                Ok(Some(_)) => Ok(()),
+                Ok(None) => match declared.iter().find(|(k, _)| k == name) {
                     Some((_, v)) if v == value => Ok(()),
                     _ => Err(read_only_reason(name)),
                 },
+                Err(e) => Err(e),
+            };
+            if let Err(reason) = &verdict {
+                // Logged by the I/O thread; a full queue only loses the log line.
+                let _ = refusals.try_send(Operator::Refused {
+                    name: name.to_string(),
+                    reason: reason.clone(),
+                });
             }
+            verdict
         }))
         .parameter_set_action(Box::new(move |name, value| {
             if !started.load(Ordering::Acquire) {
