@@ -25,7 +25,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 RATE=${1:-100}
 COUNT=${2:-3000}
-CONFIG=${CONFIG:-config/letters.toml}
+CONFIG=${CONFIG:-config/letters.toml}   # e.g. a copy with [node] realtime = { … }
+PING_ARGS=${PING_ARGS:-}                 # e.g. --realtime 90
 NETNS_RUN=${NETNS_RUN:-../shared/tools/netns-run}
 BIN=${BIN:-target/release/crossym}
 command -v ddsperf >/dev/null || { echo "error: ddsperf not found (apt install cyclonedds-tools)" >&2; exit 2; }
@@ -33,7 +34,7 @@ command -v ddsperf >/dev/null || { echo "error: ddsperf not found (apt install c
 DUR=$(python3 -c "import math; print(math.ceil($COUNT / $RATE) + 2)")
 out=$(mktemp -d)
 
-echo "== $(date -u '+%Y-%m-%d %H:%M:%S UTC'), $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs); $RATE Hz, $COUNT round trips each"
+echo "== $(date -u '+%Y-%m-%d %H:%M:%S UTC'), $(nproc) CPUs, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), load $(cut -d' ' -f1-3 /proc/loadavg); $RATE Hz, $COUNT round trips each; $CONFIG $PING_ARGS"
 
 # 1. ddsperf: pong in the background, ping for DUR s.
 "$NETNS_RUN" bash -c "ddsperf pong > '$out/pong.txt' 2>&1 & p=\$!; sleep 1; \
@@ -59,7 +60,7 @@ grep -v '^RTT' "$out/ddsperf.txt"
 
 # 2. crossym: the node triggered by joint states, ping as the robot's driver.
 "$NETNS_RUN" bash -c "'$BIN' node --config '$CONFIG' --trigger joint_states > '$out/node.txt' 2>&1 & p=\$!; \
-  '$BIN' ping --config '$CONFIG' --rate $RATE --count $COUNT > '$out/crossym.txt' 2>&1; kill -INT \$p; wait \$p" || true
+  '$BIN' ping --config '$CONFIG' --rate $RATE --count $COUNT $PING_ARGS > '$out/crossym.txt' 2>&1; kill -INT \$p; wait \$p" || true
 grep -E '^ping:|^  ' "$out/crossym.txt" || { cat "$out/crossym.txt"; exit 1; }
 grep -E 'joint state → command hops' "$out/node.txt" | sed 's/^.*\]: /node: /' || true
 
