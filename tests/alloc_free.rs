@@ -237,6 +237,30 @@ fn random_q(rng: &mut StdRng, limits: &[JointLimits]) -> Vec<f64> {
         .collect()
 }
 
+/// Probe `k` of the policy audits: a posture near `q_ref` (mostly feasible) or, every third,
+/// anywhere in the limits (some singular); an off-grid condition, σ alternating.
+fn posture_and_condition(
+    k: usize,
+    rng: &mut StdRng,
+    limits: &[JointLimits],
+    q_ref: &[f64],
+) -> (Vec<f64>, crossym::symmetry::compose::Condition) {
+    let q = if k % 3 == 2 {
+        random_q(rng, limits)
+    } else {
+        q_ref
+            .iter()
+            .map(|x| x + rng.random_range(-0.2..0.2))
+            .collect()
+    };
+    let s = crossym::symmetry::compose::Condition {
+        theta: rng.random_range(-3.0..3.0),
+        scale: rng.random_range(0.3..1.4),
+        reflection: if k % 2 == 0 { 1 } else { -1 },
+    };
+    (q, s)
+}
+
 fn all_finite<'a>(v: impl IntoIterator<Item = &'a f64>) -> bool {
     v.into_iter().all(|x| x.is_finite())
 }
@@ -634,7 +658,6 @@ fn node_core_tick_is_allocation_free() {
 #[test]
 fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
     use crossym::config::Config;
-    use crossym::symmetry::compose::Condition;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut configs = vec![("planar", "config/letters.toml")];
     if root.join("../shared/robots/rby1a/model.urdf").exists() {
@@ -658,20 +681,7 @@ fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
         let mut rng = StdRng::seed_from_u64(31);
         let (mut ok, mut failed) = (0usize, 0usize);
         for k in 0..60 {
-            // Near the reference posture (mostly feasible) and anywhere (some singular).
-            let q: Vec<f64> = if k % 3 == 2 {
-                random_q(&mut rng, kin.limits())
-            } else {
-                q_ref
-                    .iter()
-                    .map(|x| x + rng.random_range(-0.2..0.2))
-                    .collect()
-            };
-            let s = Condition {
-                theta: rng.random_range(-3.0..3.0),
-                scale: rng.random_range(0.3..1.4),
-                reflection: if k % 2 == 0 { 1 } else { -1 },
-            };
+            let (q, s) = posture_and_condition(k, &mut rng, kin.limits(), &q_ref);
             let (r, count, first) = count_allocs(|| policy.velocity(&q, &s, &mut v, &mut ws));
             let text = first.map(|b| b.to_string()).unwrap_or_default();
             assert_eq!(
@@ -708,7 +718,6 @@ fn task_head_and_its_node_tick_are_allocation_free() {
     use crossym::config::Config;
     use crossym::data::augmentation::SubGroup;
     use crossym::policy::{task_coordinate_names, AnyPolicy, Policy};
-    use crossym::symmetry::compose::Condition;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut configs = vec![("planar", "config/letters.toml")];
     if root.join("../shared/robots/rby1a/model.urdf").exists() {
@@ -751,19 +760,7 @@ fn task_head_and_its_node_tick_are_allocation_free() {
             let mut rng = StdRng::seed_from_u64(37);
             let mut ok = 0usize;
             for k in 0..60 {
-                let q: Vec<f64> = if k % 3 == 2 {
-                    random_q(&mut rng, kin.limits())
-                } else {
-                    q_ref
-                        .iter()
-                        .map(|x| x + rng.random_range(-0.2..0.2))
-                        .collect()
-                };
-                let s = Condition {
-                    theta: rng.random_range(-3.0..3.0),
-                    scale: rng.random_range(0.3..1.4),
-                    reflection: if k % 2 == 0 { 1 } else { -1 },
-                };
+                let (q, s) = posture_and_condition(k, &mut rng, kin.limits(), &q_ref);
                 let (r, count, first) = count_allocs(|| policy.velocity(&q, &s, &mut v, &mut ws));
                 let text = first.map(|b| b.to_string()).unwrap_or_default();
                 assert_eq!(count, 0, "[{robot}] task head ({r:?}) allocated:\n{text}");
