@@ -36,8 +36,8 @@ mod feasibility;
 mod fit;
 mod gate;
 mod operator;
+mod quat;
 mod rejection;
-mod rigid;
 mod singularity;
 mod stage;
 mod status;
@@ -52,7 +52,6 @@ pub use self::feasibility::{ConditionFeasibility, Infeasibility};
 pub use self::gate::{InputGate, Inputs, SHUTDOWN_SEQUENCE_BIT};
 pub use self::operator::{OperatorRefusal, OperatorRequest, RuntimeBounds, RuntimeSettings};
 pub use self::rejection::Rejection;
-pub use self::rigid::{Quat, Rigid};
 pub use self::singularity::{
     SingularityBand, SingularityReport, SingularitySettings, SingularityStatus,
 };

@@ -29,7 +29,9 @@ use serde::{Deserialize, Serialize};
 use crossym_io::msg;
 use crossym_math::symmetry::compose::Condition;
 
-use super::rigid::{dot, normalised, q_conj, q_mul, q_rotate, unit_quat, Quat, Rigid};
+use nalgebra::{Point3, Quaternion, UnitQuaternion};
+
+use super::quat::{dot, normalised, q_conj, q_mul, q_rotate, unit_quat, Quat};
 use super::tf::{TfBuffer, TfError};
 
 /// `[node.task_pose]`: where poses come from and the reference they are compared with.
@@ -288,7 +290,7 @@ impl TaskPoseMap {
                 got: m.header.frame_id.clone(),
                 want: self.cfg.frame.clone(),
             })?;
-            let t: Rigid = tf
+            let t = tf
                 .lookup(
                     &self.cfg.frame,
                     &m.header.frame_id,
@@ -299,7 +301,10 @@ impl TaskPoseMap {
                     got: m.header.frame_id.clone(),
                     error,
                 })?;
-            (t.apply(p), q_mul(t.rotation, q))
+            let p = t * Point3::from(p);
+            let r =
+                t.rotation * UnitQuaternion::new_unchecked(Quaternion::new(q[3], q[0], q[1], q[2]));
+            ([p.x, p.y, p.z], [r.i, r.j, r.k, r.w])
         };
         let r0 = self.cfg.reference_position;
         let moved =
@@ -495,11 +500,13 @@ mod tests {
     #[test]
     fn poses_in_another_frame_go_through_tf() {
         let m = pan();
-        let half = -0.25 * std::f64::consts::PI;
-        let camera = Rigid {
-            rotation: [0.0, 0.0, half.sin(), half.cos()],
-            translation: [0.1, 0.3, 0.4],
-        };
+        let camera = nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(0.1, 0.3, 0.4),
+            UnitQuaternion::from_axis_angle(
+                &nalgebra::Vector3::z_axis(),
+                -0.5 * std::f64::consts::PI,
+            ),
+        );
         let mut tf = TfBuffer::new();
         let edge = |stamp: f64| msg::TransformStamped {
             header: msg::Header {
@@ -514,10 +521,10 @@ mod tests {
                     z: 0.4,
                 },
                 rotation: msg::Quaternion {
-                    x: camera.rotation[0],
-                    y: camera.rotation[1],
-                    z: camera.rotation[2],
-                    w: camera.rotation[3],
+                    x: camera.rotation.i,
+                    y: camera.rotation.j,
+                    z: camera.rotation.k,
+                    w: camera.rotation.w,
                 },
             },
         };
@@ -529,8 +536,9 @@ mod tests {
             // The same pose seen from the camera.
             let o = in_torso.pose.orientation;
             let pp = in_torso.pose.position;
-            let p = inv.apply([pp.x, pp.y, pp.z]);
-            let q = q_mul(inv.rotation, [o.x, o.y, o.z, o.w]);
+            let p = inv * Point3::new(pp.x, pp.y, pp.z);
+            let q =
+                inv.rotation * UnitQuaternion::new_unchecked(Quaternion::new(o.w, o.x, o.y, o.z));
             let mut seen = in_torso.clone();
             seen.header.frame_id = "camera".into();
             seen.pose.position = msg::Point {
@@ -539,10 +547,10 @@ mod tests {
                 z: p[2],
             };
             seen.pose.orientation = msg::Quaternion {
-                x: q[0],
-                y: q[1],
-                z: q[2],
-                w: q[3],
+                x: q.i,
+                y: q.j,
+                z: q.k,
+                w: q.w,
             };
             let got = m.condition(&seen, 10.0, Some(&tf)).unwrap();
             assert_eq!(

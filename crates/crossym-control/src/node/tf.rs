@@ -15,7 +15,9 @@ use std::collections::HashMap;
 
 use crossym_io::msg;
 
-use super::rigid::{unit_quat, Rigid};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+
+use super::quat::unit_quat;
 
 /// Longest chain of edges followed up a tree (a loop in the edges ends there).
 const MAX_DEPTH: usize = 64;
@@ -63,8 +65,8 @@ pub enum TfError {
 #[derive(Debug, Clone)]
 struct Edge {
     parent: String,
-    /// The child's pose in the parent: `p_parent = rigid(p_child)`.
-    rigid: Rigid,
+    /// The child's pose in the parent: `p_parent = pose · p_child`.
+    pose: Isometry3<f64>,
     stamp_s: f64,
     fixed: bool,
 }
@@ -79,7 +81,7 @@ pub struct TfBuffer {
 /// most out-of-date moving edge passed (`(parent, child, age)`).
 struct Up<'a> {
     frame: &'a str,
-    from_end: Rigid,
+    from_end: Isometry3<f64>,
     worst: Option<(&'a str, &'a str, f64)>,
 }
 
@@ -122,7 +124,7 @@ impl TfBuffer {
         if !translation.iter().all(|x| x.is_finite()) {
             return Err(bad("non-finite translation"));
         }
-        let rotation =
+        let [x, y, z, w] =
             unit_quat([r.x, r.y, r.z, r.w]).ok_or_else(|| bad("zero or non-finite rotation"))?;
         let stamp_s = t.header.stamp.as_secs_f64();
         if let Some(old) = self.edges.get(&t.child_frame_id) {
@@ -134,10 +136,10 @@ impl TfBuffer {
             t.child_frame_id.clone(),
             Edge {
                 parent: t.header.frame_id.clone(),
-                rigid: Rigid {
-                    rotation,
-                    translation,
-                },
+                pose: Isometry3::from_parts(
+                    Translation3::new(translation[0], translation[1], translation[2]),
+                    UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z)),
+                ),
                 stamp_s,
                 fixed,
             },
@@ -159,7 +161,7 @@ impl TfBuffer {
     fn up<'a>(&'a self, end: &'a str, at_s: f64) -> Vec<Up<'a>> {
         let mut chain = vec![Up {
             frame: end,
-            from_end: Rigid::IDENTITY,
+            from_end: Isometry3::identity(),
             worst: None,
         }];
         while chain.len() <= MAX_DEPTH {
@@ -175,7 +177,7 @@ impl TfBuffer {
             };
             let next = Up {
                 frame: edge.parent.as_str(),
-                from_end: edge.rigid.then_after(&last.from_end),
+                from_end: edge.pose * last.from_end,
                 worst,
             };
             chain.push(next);
@@ -191,7 +193,7 @@ impl TfBuffer {
         source: &str,
         at_s: f64,
         tolerance_s: f64,
-    ) -> Result<Rigid, TfError> {
+    ) -> Result<Isometry3<f64>, TfError> {
         let from_source = self.up(source, at_s);
         for t in self.up(target, at_s) {
             let Some(s) = from_source.iter().find(|s| s.frame == t.frame) else {
@@ -207,7 +209,7 @@ impl TfBuffer {
                     });
                 }
             }
-            return Ok(t.from_end.inverse().then_after(&s.from_end));
+            return Ok(t.from_end.inverse() * s.from_end);
         }
         let mut known: Vec<&str> = self
             .edges
@@ -227,7 +229,7 @@ impl TfBuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::node::rigid::q_rotate;
+    use nalgebra::{Point3, Vector3};
 
     fn edge(parent: &str, child: &str, t: [f64; 3], yaw: f64, stamp: f64) -> msg::TransformStamped {
         msg::TransformStamped {
@@ -252,8 +254,12 @@ mod tests {
         }
     }
 
-    fn close(a: [f64; 3], b: [f64; 3]) -> bool {
-        a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12)
+    fn close(a: Point3<f64>, b: [f64; 3]) -> bool {
+        (a - Point3::from(b)).norm() < 1e-12
+    }
+
+    fn at(t: &Isometry3<f64>, p: [f64; 3]) -> Point3<f64> {
+        t * Point3::from(p)
     }
 
     /// base ← torso (static, 0.3 up) ← head (moving, yawed 90°) ← camera (static, 0.1
@@ -277,22 +283,16 @@ mod tests {
         // A point 1 m in front of the camera: the camera looks along the head's x, which the
         // yaw turns onto the torso's y; in base it is (0, 1.1, 0.5), in arm (0, 0.9, 0.5).
         let t = tf.lookup("base", "camera", 10.0, 0.1).unwrap();
-        assert!(close(t.apply([1.0, 0.0, 0.0]), [0.0, 1.1, 0.5]), "{t:?}");
+        assert!(close(at(&t, [1.0, 0.0, 0.0]), [0.0, 1.1, 0.5]), "{t:?}");
         let t = tf.lookup("arm", "camera", 10.05, 0.1).unwrap();
-        assert!(close(t.apply([1.0, 0.0, 0.0]), [0.0, 0.9, 0.5]), "{t:?}");
+        assert!(close(at(&t, [1.0, 0.0, 0.0]), [0.0, 0.9, 0.5]), "{t:?}");
         let back = tf.lookup("camera", "arm", 10.0, 0.1).unwrap();
-        assert!(close(
-            back.apply(t.apply([0.3, -0.2, 0.7])),
-            [0.3, -0.2, 0.7]
-        ));
-        assert!(close(
-            q_rotate(t.rotation, [1.0, 0.0, 0.0]),
-            [0.0, 1.0, 0.0]
-        ));
+        assert!(close(back * at(&t, [0.3, -0.2, 0.7]), [0.3, -0.2, 0.7]));
+        assert!((t.rotation * Vector3::x() - Vector3::y()).norm() < 1e-12);
         // The same frame: the identity.
         assert_eq!(
             tf.lookup("head", "head", 0.0, 0.1).unwrap(),
-            Rigid::IDENTITY
+            Isometry3::identity()
         );
     }
 
@@ -315,7 +315,7 @@ mod tests {
         tf.insert(&edge("base", "head", [9.0; 3], 0.0, 10.2), false)
             .unwrap();
         let t = tf.lookup("base", "camera", 10.5, 0.1).unwrap();
-        assert_eq!(t.translation, [0.0; 3]);
+        assert_eq!(t.translation.vector, Vector3::zeros());
         let e = tf.lookup("base", "gripper", 10.5, 0.1).unwrap_err();
         assert_eq!(
             e.to_string(),
