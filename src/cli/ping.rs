@@ -8,14 +8,19 @@
 //! lost. The node should run with `trigger = "joint_states"` (else a round trip includes
 //! the wait for the next timer tick, up to a period).
 //!
-//! ping waits for the command as a driver does, blocked until DDS wakes it (`--busy-wait`
-//! spins instead, taking a core), and splits each round trip with the stamps DDS carries
-//! (both processes read the same wall clock): the probe's publish → the command's publish
-//! (over DDS to the node and through it), the command's publish → its DDS receive here,
-//! and that receive → ping holding it.
+//! ping runs on its DDS participant's event-loop thread (`crossym_ros::event_loop`, the
+//! node's own arrangement): it publishes and reads where RustDDS sends and receives, so the
+//! measurement adds no thread hand-off of its own. It waits for the command as a driver
+//! does, blocked until the datagram wakes it (`--busy-wait` spins instead, taking a core),
+//! and splits each round trip with the stamps DDS carries (both processes read the same
+//! wall clock): the probe's publish → the command's publish (over DDS to the node and
+//! through it), the command's publish → its DDS receive here, and that receive → ping
+//! holding it.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crossym::config::Config;
@@ -23,6 +28,8 @@ use crossym::control::realtime::{self, RealtimeConfig};
 use crossym::control::{OutputMode, Trigger};
 use crossym::msg;
 use crossym::ros::dds::{self, DdsSettings};
+use crossym::ros::event_loop::LoopThread;
+use ros2_client::dds::rustdds::{EventLoopHook, EventLoopWaker};
 
 use crossym::setup::node_config;
 
@@ -49,8 +56,9 @@ pub struct PingArgs {
     /// Spin on the subscription instead of blocking until DDS wakes ping (takes a core).
     #[arg(long)]
     pub busy_wait: bool,
-    /// Run ping as a real-time driver would: its thread under SCHED_FIFO at this priority
-    /// (1 … 99), its DDS event-loop thread one below, memory locked (needs privileges).
+    /// Run ping as a real-time driver would: its thread (its DDS event loop) under
+    /// SCHED_FIFO at this priority (1 … 99), RustDDS's discovery thread one below, memory
+    /// locked (needs privileges).
     #[arg(long, value_name = "PRIORITY")]
     pub realtime: Option<i32>,
     /// The node's flags, when it was started with some (name, namespace, output, topics).
@@ -112,24 +120,11 @@ impl Replies {
         })
     }
 
-    /// True when a command was waiting.
-    fn take(&self) -> bool {
-        self.try_info().is_some()
-    }
-
     /// The stamps of a waiting command, without blocking.
     fn try_info(&self) -> Option<ros2_client::MessageInfo> {
         match self {
             Self::Array(s) => s.take().ok().flatten().map(|(_, i)| i),
             Self::Trajectory(s) => s.take().ok().flatten().map(|(_, i)| i),
-        }
-    }
-
-    /// The stamps of the next command, waiting until DDS delivers one (`None`: reader error).
-    async fn next_info(&self) -> Option<ros2_client::MessageInfo> {
-        match self {
-            Self::Array(s) => s.async_take().await.ok().map(|(_, i)| i),
-            Self::Trajectory(s) => s.async_take().await.ok().map(|(_, i)| i),
         }
     }
 }
@@ -190,88 +185,302 @@ pub fn run(a: &PingArgs) -> anyhow::Result<ExitCode> {
     let q = probe_q(&cfg, kin);
     let js_topic = dds::expand_topic(&n.topics.joint_states, &n.namespace, &n.name);
     let cmd_topic = dds::expand_topic(&n.topics.command, &n.namespace, &n.name);
-    let ctx = DdsSettings::from_env()?.context()?;
+    let looper = Arc::new(LoopThread::default());
+    let (hook, job_tx, done_rx) = PingHook::new(looper.clone());
+    let ctx = DdsSettings::from_env()?.context_with_hook(Some(Box::new(hook)))?;
     let mut node = ctx
         .new_node(
             dds::node_name("/", &format!("crossym_ping_{}", std::process::id()))?,
             ros2_client::NodeOptions::new().enable_rosout(false),
         )
         .map_err(|e| anyhow::anyhow!("DDS node: {e:?}"))?;
+    let thread = looper
+        .wait(Duration::from_secs(5))
+        .ok_or_else(|| anyhow::anyhow!("the DDS event loop did not start within 5 s"))?;
     if let Some(p) = a.realtime {
-        apply_realtime(p)?;
+        apply_realtime(p, thread)?;
     }
-    let js_pub = dds::publisher::<msg::JointState>(&mut node, &js_topic, dds::qos_reliable(10))?;
+    // Written from the event loop itself: a full send window fails at once.
+    let js_pub =
+        dds::publisher::<msg::JointState>(&mut node, &js_topic, dds::qos_reliable_nonblocking(10))?;
     let replies = Replies::subscribe(&mut node, n.output, &cmd_topic)?;
-    let names = kin.joint_names().to_vec();
-    // Publishes one probe; returns its wall-clock publish time (ns).
-    let send = || -> anyhow::Result<i64> {
-        let now = wall_ns();
-        js_pub
-            .publish(msg::JointState {
-                header: msg::Header {
-                    stamp: msg::Time::from_secs_f64(now as f64 * 1e-9),
-                    frame_id: String::new(),
-                },
-                name: names.clone(),
-                position: q.clone(),
-                ..Default::default()
-            })
-            .map_err(|e| anyhow::anyhow!("publishing on {js_topic}: {e:?}"))?;
-        Ok(now)
-    };
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_time()
-        .build()?;
     eprintln!(
         "crossym ping: {js_topic} → {cmd_topic}, {} probes at {} Hz",
         a.count, a.rate
     );
-    let Some(warm_sent_ns) = warm_up(a.connect_timeout_s, &send, &replies, &cmd_topic)? else {
-        return Ok(ExitCode::from(1));
+    let job = PingJob {
+        probe: msg::JointState {
+            header: msg::Header::default(),
+            name: kin.joint_names().to_vec(),
+            position: q,
+            ..Default::default()
+        },
+        js_pub,
+        replies,
+        connect_timeout: Duration::from_secs_f64(a.connect_timeout_s),
+        period: Duration::from_secs_f64(1.0 / a.rate),
+        timeout: Duration::from_secs_f64(a.reply_timeout_ms * 1e-3),
+        count: a.count,
+        busy_wait: a.busy_wait,
+        stale_s: n.stale_timeout_s.max(n.period_s),
+        state: JobState::WarmUp {
+            start: Instant::now(),
+            warm: 0,
+            next: Instant::now(),
+            last_ns: 0,
+        },
+        probes: Vec::with_capacity(a.count),
+        lost: 0,
+        extra: Unanswered::new(0, 0.0),
     };
-    let period = Duration::from_secs_f64(1.0 / a.rate);
-    let timeout = Duration::from_secs_f64(a.reply_timeout_ms * 1e-3);
-    let mut probes: Vec<Probe> = Vec::with_capacity(a.count);
-    let mut lost = 0usize;
-    let mut extra = Unanswered::new(warm_sent_ns, n.stale_timeout_s.max(n.period_s));
-    let mut next = Instant::now();
-    for _ in 0..a.count {
-        while let Some(i) = replies.try_info() {
-            extra.count(&i);
+    if job_tx.send(job).is_err() {
+        anyhow::bail!("the DDS event loop stopped before ping started");
+    }
+    looper.wake();
+    let outcome = done_rx
+        .recv()
+        .map_err(|_| anyhow::anyhow!("the DDS event loop stopped during the measurement"))?;
+    match outcome {
+        PingOutcome::Publish(e) => anyhow::bail!("publishing on {js_topic}: {e}"),
+        PingOutcome::NoNode => {
+            eprintln!(
+                "crossym ping: no command on {cmd_topic} within {} s: is `crossym node` running with this config, the same ROS_DOMAIN_ID and network?",
+                a.connect_timeout_s
+            );
+            Ok(ExitCode::from(1))
         }
-        let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
+        PingOutcome::Done {
+            probes,
+            lost,
+            extra,
+        } => Ok(report(a, &probes, lost, &extra)),
+    }
+}
+
+/// What the measurement ended with.
+enum PingOutcome {
+    /// The round trips.
+    Done {
+        probes: Vec<Probe>,
+        lost: usize,
+        extra: Unanswered,
+    },
+    /// No command came back within the connect timeout.
+    NoNode,
+    /// A probe could not be published.
+    Publish(String),
+}
+
+/// ping as RustDDS's event-loop hook: waits for its [`PingJob`], steps it after each
+/// wake-up of the loop (a datagram, its own timeout), reports the outcome once.
+struct PingHook {
+    looper: Arc<LoopThread>,
+    jobs: Receiver<PingJob>,
+    job: Option<Box<PingJob>>,
+    done: SyncSender<PingOutcome>,
+    finished: bool,
+}
+
+impl PingHook {
+    fn new(looper: Arc<LoopThread>) -> (Self, SyncSender<PingJob>, Receiver<PingOutcome>) {
+        let (job_tx, jobs) = std::sync::mpsc::sync_channel(1);
+        let (done, done_rx) = std::sync::mpsc::sync_channel(1);
+        (
+            Self {
+                looper,
+                jobs,
+                job: None,
+                done,
+                finished: false,
+            },
+            job_tx,
+            done_rx,
+        )
+    }
+}
+
+impl EventLoopHook for PingHook {
+    fn start(&mut self, waker: EventLoopWaker) {
+        self.looper.started(waker, c"crossym-ping");
+    }
+
+    fn run(&mut self) -> Option<Duration> {
+        if self.finished {
+            return None;
         }
-        next += period;
-        let t0 = Instant::now();
-        let sent_ns = send()?;
-        // The probe's command: the first one published after the probe (an older one,
-        // e.g. of a tick the node ran on its own, is a stray).
-        let answers = |i: &ros2_client::MessageInfo| {
-            i.source_timestamp().is_none_or(|t| t.to_nanos() >= sent_ns)
+        let job = match self.job.as_mut() {
+            Some(job) => job,
+            None => match self.jobs.try_recv() {
+                Ok(job) => self.job.insert(Box::new(job)),
+                Err(TryRecvError::Empty) => return Some(Duration::from_millis(5)),
+                Err(TryRecvError::Disconnected) => return None,
+            },
         };
-        let info = wait_reply(
-            &replies,
-            &rt,
-            a.busy_wait,
-            t0,
-            timeout,
-            &answers,
-            &mut extra,
-        );
-        extra.probe(sent_ns, info.is_some());
-        match info {
-            Some(i) => probes.push(Probe::new(
-                t0.elapsed().as_secs_f64() * 1e6,
-                sent_ns,
-                wall_ns(),
-                &i,
-            )),
-            None => lost += 1,
+        match job.step() {
+            Ok(wait) => Some(wait),
+            Err(outcome) => {
+                // The process reports it and drops the participant.
+                let _ = self.done.try_send(outcome);
+                self.job = None;
+                self.finished = true;
+                None
+            }
         }
     }
-    Ok(report(a, &probes, lost, &extra))
+}
+
+/// The measurement, stepped by [`PingHook`] on the DDS event loop.
+struct PingJob {
+    probe: msg::JointState,
+    js_pub: ros2_client::Publisher<msg::JointState>,
+    replies: Replies,
+    connect_timeout: Duration,
+    period: Duration,
+    timeout: Duration,
+    count: usize,
+    busy_wait: bool,
+    stale_s: f64,
+    state: JobState,
+    probes: Vec<Probe>,
+    lost: usize,
+    extra: Unanswered,
+}
+
+enum JobState {
+    /// Discovery and warm-up: a probe every 20 ms until 20 commands came back.
+    WarmUp {
+        start: Instant,
+        warm: usize,
+        next: Instant,
+        last_ns: i64,
+    },
+    /// The next probe goes out at `next`.
+    Idle { next: Instant },
+    /// A probe published at `t0` (`sent_ns` on the wall clock) waits for its command.
+    Waiting {
+        t0: Instant,
+        sent_ns: i64,
+        next: Instant,
+    },
+}
+
+/// Below this, a wait is slept on the loop's thread (epoll counts whole milliseconds and
+/// mio rounds up).
+const SLEEP_BELOW: Duration = Duration::from_millis(1);
+
+impl PingJob {
+    /// Publishes one probe stamped with the wall clock; its publish time (ns).
+    fn send(&mut self) -> Result<i64, PingOutcome> {
+        let now = wall_ns();
+        self.probe.header.stamp = msg::Time::from_secs_f64(now as f64 * 1e-9);
+        self.js_pub
+            .publish(self.probe.clone())
+            .map_err(|e| PingOutcome::Publish(format!("{e:?}")))?;
+        Ok(now)
+    }
+
+    /// Advances the measurement; how long the loop may wait (`Err`: finished).
+    fn step(&mut self) -> Result<Duration, PingOutcome> {
+        loop {
+            match self.state {
+                JobState::WarmUp {
+                    start,
+                    mut warm,
+                    next,
+                    last_ns,
+                } => {
+                    while self.replies.try_info().is_some() {
+                        warm += 1;
+                    }
+                    if warm >= 20 {
+                        self.extra = Unanswered::new(last_ns, self.stale_s);
+                        self.state = JobState::Idle {
+                            next: Instant::now(),
+                        };
+                        continue;
+                    }
+                    if start.elapsed() > self.connect_timeout {
+                        return Err(PingOutcome::NoNode);
+                    }
+                    let now = Instant::now();
+                    let (next, last_ns) = if now >= next {
+                        (now + Duration::from_millis(20), self.send()?)
+                    } else {
+                        (next, last_ns)
+                    };
+                    self.state = JobState::WarmUp {
+                        start,
+                        warm,
+                        next,
+                        last_ns,
+                    };
+                    return Ok(next.saturating_duration_since(Instant::now()));
+                }
+                JobState::Idle { next } => {
+                    if self.probes.len() + self.lost >= self.count {
+                        return Err(PingOutcome::Done {
+                            probes: std::mem::take(&mut self.probes),
+                            lost: self.lost,
+                            extra: self.extra.clone(),
+                        });
+                    }
+                    while let Some(i) = self.replies.try_info() {
+                        self.extra.count(&i);
+                    }
+                    let wait = next.saturating_duration_since(Instant::now());
+                    if wait >= SLEEP_BELOW && !self.busy_wait {
+                        return Ok(Duration::from_millis(wait.as_millis() as u64));
+                    }
+                    if !wait.is_zero() {
+                        if self.busy_wait {
+                            return Ok(Duration::ZERO);
+                        }
+                        std::thread::sleep(wait);
+                    }
+                    let t0 = Instant::now();
+                    let sent_ns = self.send()?;
+                    self.state = JobState::Waiting {
+                        t0,
+                        sent_ns,
+                        next: next + self.period,
+                    };
+                    // Back to the loop: it transmits the probe now.
+                    return Ok(if self.busy_wait {
+                        Duration::ZERO
+                    } else {
+                        self.timeout
+                    });
+                }
+                JobState::Waiting { t0, sent_ns, next } => {
+                    while let Some(i) = self.replies.try_info() {
+                        let answers = i.source_timestamp().is_none_or(|t| t.to_nanos() >= sent_ns);
+                        if !answers {
+                            self.extra.count(&i);
+                            continue;
+                        }
+                        self.probes.push(Probe::new(
+                            t0.elapsed().as_secs_f64() * 1e6,
+                            sent_ns,
+                            wall_ns(),
+                            &i,
+                        ));
+                        self.extra.probe(sent_ns, true);
+                        self.state = JobState::Idle { next };
+                        break;
+                    }
+                    if let JobState::Waiting { .. } = self.state {
+                        let left = self.timeout.saturating_sub(t0.elapsed());
+                        if !left.is_zero() {
+                            return Ok(if self.busy_wait { Duration::ZERO } else { left });
+                        }
+                        self.lost += 1;
+                        self.extra.probe(sent_ns, false);
+                        self.state = JobState::Idle { next };
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Commands that answer no probe, by what explains them (their DDS source stamps against
@@ -322,36 +531,10 @@ impl Unanswered {
     }
 }
 
-/// Discovery and warm-up: probes until 20 commands came back; the last probe's publish
-/// time (ns), `None` (and why, printed) when none came within `connect_timeout_s`.
-fn warm_up(
-    connect_timeout_s: f64,
-    send: &dyn Fn() -> anyhow::Result<i64>,
-    replies: &Replies,
-    cmd_topic: &str,
-) -> anyhow::Result<Option<i64>> {
-    let start = Instant::now();
-    let mut warm = 0;
-    let mut last = 0;
-    while warm < 20 {
-        if start.elapsed().as_secs_f64() > connect_timeout_s {
-            eprintln!(
-                "crossym ping: no command on {cmd_topic} within {connect_timeout_s} s: is `crossym node` running with this config, the same ROS_DOMAIN_ID and network?",
-            );
-            return Ok(None);
-        }
-        last = send()?;
-        std::thread::sleep(Duration::from_millis(20));
-        while replies.take() {
-            warm += 1;
-        }
-    }
-    Ok(Some(last))
-}
-
-/// `--realtime PRIORITY`: this thread under SCHED_FIFO at `p`, DDS one below, memory
-/// locked; what could not be applied is printed.
-fn apply_realtime(p: i32) -> anyhow::Result<()> {
+/// `--realtime PRIORITY`: ping's thread (its DDS event loop) under SCHED_FIFO at `p`,
+/// RustDDS's discovery thread one below, memory locked; what could not be applied is
+/// printed.
+fn apply_realtime(p: i32, thread: libc::pthread_t) -> anyhow::Result<()> {
     let rt = RealtimeConfig {
         priority: p,
         lock_memory: true,
@@ -361,8 +544,7 @@ fn apply_realtime(p: i32) -> anyhow::Result<()> {
     };
     rt.validate()
         .map_err(|e| anyhow::anyhow!("--realtime: {e}"))?;
-    // SAFETY: pthread_self has no preconditions.
-    for o in realtime::apply(&rt, unsafe { libc::pthread_self() }) {
+    for o in realtime::apply(&rt, thread) {
         eprintln!(
             "crossym ping: {}",
             o.to_string().replace("control thread", "ping thread")
@@ -384,41 +566,6 @@ fn probe_q(cfg: &Config, kin: &crossym::kinematics::Kinematics) -> Vec<f64> {
                 .map(|l| 0.5 * (l.lower + l.upper))
                 .collect()
         })
-}
-
-/// The command answering the probe sent at `t0` (`answers` tells it from an older one,
-/// counted in `extra`), waited for up to `timeout` blocked or spinning; `None` when lost.
-fn wait_reply(
-    replies: &Replies,
-    rt: &tokio::runtime::Runtime,
-    busy_wait: bool,
-    t0: Instant,
-    timeout: Duration,
-    answers: &dyn Fn(&ros2_client::MessageInfo) -> bool,
-    extra: &mut Unanswered,
-) -> Option<ros2_client::MessageInfo> {
-    loop {
-        let got = if busy_wait {
-            loop {
-                if let Some(i) = replies.try_info() {
-                    break Some(i);
-                }
-                if t0.elapsed() > timeout {
-                    break None;
-                }
-                std::hint::spin_loop();
-            }
-        } else {
-            let left = timeout.saturating_sub(t0.elapsed());
-            rt.block_on(async { tokio::time::timeout(left, replies.next_info()).await })
-                .ok()
-                .flatten()
-        };
-        match got {
-            Some(i) if !answers(&i) => extra.count(&i),
-            other => break other,
-        }
-    }
 }
 
 /// Prints the round trips' order statistics and their parts; exit 1 when all were lost.

@@ -373,7 +373,8 @@ fn thread_policy(pid: u32, comm: &str) -> Option<(u32, u32)> {
 
 /// `[node] realtime = { priority = 10, lock_memory = true, dds_priority = 9,
 /// cpu_latency_us = 0, idle_poll = true }`: with the privilege the kernel shows the control
-/// thread under SCHED_FIFO at priority 10, RustDDS's event-loop thread at 9, the memory
+/// thread (which is also the DDS event loop: no `RustDDS Participant` thread is left) under
+/// SCHED_FIFO at priority 10, RustDDS's discovery thread at 9, the memory
 /// locked and its PM QoS CPU latency target at 0 while the node runs (back afterwards);
 /// without it (CAP_SYS_NICE and CAP_IPC_LOCK dropped from the bounding set) the node says
 /// what was refused and how to grant it, keeps commanding at normal priority, and exits 0.
@@ -434,7 +435,12 @@ fn realtime_settings_apply_or_say_why_not() {
             })
         };
         let (policy, prio) = find("crossym-control").expect("control thread");
-        let dds = find("RustDDS Partici").expect("DDS event-loop thread");
+        let dds = find("RustDDS discove").expect("RustDDS discovery thread");
+        assert_eq!(
+            thread_policy(node.id(), "RustDDS Partici"),
+            None,
+            "the DDS event loop runs on the control thread"
+        );
         for &c in &cpus {
             // SCHED_IDLE = 5.
             let idle = find(&format!("crossym-idle{c}"));
@@ -468,7 +474,7 @@ fn realtime_settings_apply_or_say_why_not() {
             );
             assert_eq!((policy, prio), (1, 10), "{text}");
             assert!(
-                text.contains("realtime: DDS event-loop threads SCHED_FIFO priority 9 (1 thread)"),
+                text.contains("realtime: RustDDS threads SCHED_FIFO priority 9 (1 thread)"),
                 "{text}"
             );
             assert_eq!(dds, (1, 9), "{text}");
@@ -489,7 +495,7 @@ fn realtime_settings_apply_or_say_why_not() {
                 "{text}"
             );
             assert!(
-                text.contains("DDS event-loop threads SCHED_FIFO priority 9 REFUSED"),
+                text.contains("RustDDS threads SCHED_FIFO priority 9 REFUSED"),
                 "{text}"
             );
             assert_eq!(policy, 0, "{text}");

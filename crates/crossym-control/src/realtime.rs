@@ -2,9 +2,10 @@
 //! real-time guidance suggests: the control thread (the tick: FK, Jacobian, MLP, safety QP,
 //! command) under `SCHED_FIFO` at a fixed priority, so a compiler or a logger on the same
 //! cores cannot delay it, and the process's memory locked (`mlockall(MCL_CURRENT |
-//! MCL_FUTURE)`), so a page fault never stalls a tick. Optionally RustDDS's event-loop
-//! thread too (`dds_priority`), which receives and sends every sample: under load the
-//! round trip's tail sits there once the control thread runs first (README, issue 20).
+//! MCL_FUTURE)`), so a page fault never stalls a tick. The node's control thread is also
+//! its DDS participant's event loop (it receives and sends every sample); optionally
+//! RustDDS's other threads (`dds_priority`: its discovery thread, and the event loop of a
+//! participant without a hook) run under `SCHED_FIFO` too.
 //! And optionally a CPU wake-up latency limit (`cpu_latency_us`, the kernel's PM QoS
 //! `/dev/cpu_dma_latency`, as `cyclictest` sets it), held while the node runs: with 0 an
 //! idle CPU polls instead of halting, so the threads on the joint state → command path
@@ -37,8 +38,9 @@ pub struct RealtimeConfig {
     /// Lock the process's current and future pages in RAM.
     #[serde(default)]
     pub lock_memory: bool,
-    /// `SCHED_FIFO` priority (1 … 99) of RustDDS's event-loop threads (every sample's
-    /// receive and send); absent: they run at normal priority.
+    /// `SCHED_FIFO` priority (1 … 99) of RustDDS's own threads (discovery; the node's DDS
+    /// event loop is its control thread, at `priority`); absent: they run at normal
+    /// priority.
     #[serde(default)]
     pub dds_priority: Option<i32>,
     /// CPU wake-up latency limit (µs) requested through `/dev/cpu_dma_latency` while the node
@@ -217,15 +219,15 @@ pub fn request_cpu_latency(us: u32) -> (Option<CpuLatencyRequest>, RealtimeOutco
     }
 }
 
-/// The name (`comm`, truncated by the kernel to 15 bytes) of RustDDS's per-participant
-/// event-loop threads, `RustDDS Participant {id} event loop`.
-const DDS_EVENT_LOOP_COMM: &str = "RustDDS Partici";
+/// The start of the names (`comm`) of RustDDS's threads: `RustDDS discovery thread`,
+/// `RustDDS Participant {id} event loop` (a hooked event loop is renamed by its hook).
+const DDS_EVENT_LOOP_COMM: &str = "RustDDS";
 
-/// Puts this process's RustDDS event-loop threads (found by name in `/proc/self/task`)
+/// Puts this process's RustDDS threads (found by name in `/proc/self/task`)
 /// under `SCHED_FIFO` at `priority`.
 #[cfg(unix)]
 fn apply_to_dds_threads(priority: i32) -> RealtimeOutcome {
-    let what = format!("DDS event-loop threads SCHED_FIFO priority {priority}");
+    let what = format!("RustDDS threads SCHED_FIFO priority {priority}");
     let tids: Vec<libc::pid_t> = std::fs::read_dir("/proc/self/task")
         .into_iter()
         .flatten()

@@ -12,7 +12,7 @@
 
 use std::net::{IpAddr, Ipv4Addr};
 
-use ros2_client::dds::rustdds::{DomainParticipantBuilder, Topic};
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, EventLoopHook, Topic};
 use ros2_client::{Context, MessageTypeName, Name, NodeName, QosProfile};
 
 use crossym_io::msg::RosMessage;
@@ -127,7 +127,20 @@ impl DdsSettings {
 
     /// Creates the ros2-client context (one DDS participant).
     pub fn context(&self) -> Result<Context, DdsError> {
+        self.context_with_hook(None)
+    }
+
+    /// Creates the ros2-client context with `hook` run on its participant's event-loop
+    /// thread (RustDDS's event-loop hook, vendor/README.md): the hook reads and writes on
+    /// the thread that receives and transmits, with no hand-off between threads.
+    pub fn context_with_hook(
+        &self,
+        hook: Option<Box<dyn EventLoopHook>>,
+    ) -> Result<Context, DdsError> {
         let mut b = DomainParticipantBuilder::new(self.domain_id);
+        if let Some(h) = hook {
+            b = b.event_loop_hook(h);
+        }
         if self.range == DiscoveryRange::Localhost {
             b = b.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);
         }
@@ -186,6 +199,13 @@ pub fn qos_sensor() -> QosProfile {
 /// Reliable, volatile, keep-last `depth` (commands, status, conditions).
 pub fn qos_reliable(depth: usize) -> QosProfile {
     QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth })
+}
+
+/// [`qos_reliable`] for a writer on the DDS event-loop thread (an event-loop hook): a
+/// publish on a full send window (a reader that stopped acknowledging) fails at once
+/// instead of waiting for acknowledgements that the blocked loop itself would process.
+pub fn qos_reliable_nonblocking(depth: usize) -> QosProfile {
+    qos_reliable(depth).reliability_reliable(ros2_client::qos::WhenFull::Fail)
 }
 
 /// Creates a topic of message type `M` on `node`.

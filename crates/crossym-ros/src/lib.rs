@@ -2,6 +2,8 @@
 //!
 //! The node on the network and the robots it is tested against:
 //! - [`dds`]: ROS 2 over pure-Rust DDS (ros2-client): topics, QoS, the clock;
+//! - [`event_loop`]: code on the DDS participant's event-loop thread (the node's control
+//!   thread, `crossym ping`);
 //! - [`node`]: the ROS 2 node around [`crossym_control::NodeCore`]: control thread, I/O
 //!   thread, recording, statistics;
 //! - [`log`]: the node's console and `/rosout` log;
@@ -15,6 +17,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod dds;
+pub mod event_loop;
 pub mod idle_poll;
 pub mod log;
 pub mod node;

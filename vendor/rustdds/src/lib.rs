@@ -198,6 +198,9 @@ mod test;
 
 mod mio_source;
 
+mod event_loop_hook;
+pub use event_loop_hook::{EventLoopHook, EventLoopWaker};
+
 // Public modules
 pub mod dds; // this is public, but not advertised
 

@@ -1,17 +1,20 @@
 //! The control thread: the path of one joint state to one command, in one place.
 //!
 //! ```text
-//! UDP → RustDDS event loop ─(reader notification)→ this thread's poll → take
+//! UDP → RustDDS event loop (this thread) → reader cache → take
 //!     → NodeCore::on_joint_state (validation) → recorder channel
 //!     → NodeCore::tick (FK, Jacobian, π(q, s), safety QP: allocates, locks, logs nothing)
-//!     → publish ─(writer doorbell)→ RustDDS event loop → UDP
+//!     → publish → RustDDS event loop (this thread, same wake-up) → UDP
 //! ```
 //!
-//! The subscriptions are registered with a `mio` poll owned by this thread, so a joint state
-//! costs one thread wake-up between DDS and the tick. (Until issue 20 an I/O task read it
-//! from ros2-client's async stream and handed it over through a triple buffer and an
-//! `unpark`: two wake-ups, 46 + 10 µs median at 1 kHz and more at 100 Hz.) Conditions
-//! arrive the same way. With `trigger = "joint_states"` every accepted joint state ticks
+//! The control thread *is* the DDS participant's event-loop thread: [`ControlHook`] runs
+//! as RustDDS's event-loop hook (vendor/README.md), called each time the loop has
+//! delivered what arrived, and what it publishes is transmitted before the loop sleeps
+//! again. A joint state therefore costs no thread hand-off between the socket and the
+//! tick, nor between the tick and the socket: one wake-up of one thread per round trip,
+//! as in Cyclone DDS's synchronous delivery. (Before, the event loop woke this thread
+//! through the reader's notification and the publish woke the event loop back: two
+//! hand-offs, ≈ 50 µs of the node's ≈ 110 µs at 1 kHz.) Conditions arrive the same way. With `trigger = "joint_states"` every accepted joint state ticks
 //! once (several read together tick once, on the latest); without one for
 //! `stale_timeout_s` the ticks go on at the period (they command the stale-input stop).
 //! With `trigger = "timer"` the ticks run every `period_s` on the latest inputs.
@@ -21,19 +24,19 @@
 //! conditions, status transitions) goes to the I/O thread's log as [`ToIo`] events over a
 //! bounded channel that never blocks.
 
-use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender};
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use mio::{Events, Interest, Poll, Token, Waker};
+use ros2_client::dds::rustdds::{EventLoopHook, EventLoopWaker};
 
 use super::record::{RecordItem, Recorder};
 use super::stats::{span_us, Histogram, TickStats};
 use super::Endpoints;
 use crate::dds;
+use crate::event_loop::LoopThread;
 use crossym_control::node::{
     Command, NodeCore, OperatorRefusal, OperatorRequest, PoseRejection, Rejection, StatusSnapshot,
     TaskPoseMap, TfBuffer, TfError, Trigger,
@@ -41,10 +44,6 @@ use crossym_control::node::{
 use crossym_io::msg;
 use crossym_math::symmetry::compose::Condition;
 
-const JOINT_STATES: Token = Token(0);
-const CONDITIONS: Token = Token(1);
-const WAKE: Token = Token(2);
-const POSES: Token = Token(3);
 /// Messages taken from one subscription before the tick is considered again (a flood of
 /// messages cannot starve the tick).
 const MAX_READS: usize = 64;
@@ -110,12 +109,101 @@ pub(super) struct Links {
     pub(super) from_io: Receiver<(OperatorRequest, &'static str)>,
 }
 
-/// The control thread's state (moved into the thread by [`ControlThread::run`]).
+/// How long the loop keeps delivering after the final command: reliable writers deliver
+/// (and repair) the last samples before the node drops them.
+const DRAIN: Duration = Duration::from_millis(300);
+/// How often the hook looks for its [`ControlThread`] before it arrives (setup only).
+const SETUP_POLL: Duration = Duration::from_millis(5);
+
+/// The control thread as RustDDS's event-loop hook: waits for the node's setup to hand it
+/// a [`ControlThread`], steps it after each wake-up of the loop, then lets the loop deliver
+/// the final command for [`DRAIN`] and reports the statistics.
+pub(super) struct ControlHook {
+    shared: Arc<LoopThread>,
+    setup: Receiver<ControlThread>,
+    done: SyncSender<TickStats>,
+    state: HookState,
+}
+
+enum HookState {
+    Waiting,
+    Running(Box<ControlThread>),
+    /// The endpoints stay alive while the loop delivers (and repairs) the final samples:
+    /// a dropped writer is removed from the loop with what it has not delivered.
+    Draining {
+        until: Instant,
+        stats: TickStats,
+        _control: Box<ControlThread>,
+    },
+    Done,
+}
+
+impl ControlHook {
+    /// The hook, the sender of its [`ControlThread`] and the receiver of its statistics.
+    pub(super) fn new(
+        shared: Arc<LoopThread>,
+    ) -> (Self, SyncSender<ControlThread>, Receiver<TickStats>) {
+        let (setup_tx, setup) = std::sync::mpsc::sync_channel(1);
+        let (done, done_rx) = std::sync::mpsc::sync_channel(1);
+        (
+            Self {
+                shared,
+                setup,
+                done,
+                state: HookState::Waiting,
+            },
+            setup_tx,
+            done_rx,
+        )
+    }
+}
+
+impl EventLoopHook for ControlHook {
+    fn start(&mut self, waker: EventLoopWaker) {
+        self.shared.started(waker, c"crossym-control");
+    }
+
+    fn run(&mut self) -> Option<Duration> {
+        loop {
+            match &mut self.state {
+                HookState::Waiting => match self.setup.try_recv() {
+                    Ok(c) => self.state = HookState::Running(Box::new(c)),
+                    Err(TryRecvError::Empty) => return Some(SETUP_POLL),
+                    Err(TryRecvError::Disconnected) => self.state = HookState::Done,
+                },
+                HookState::Running(c) => {
+                    if let Some(wait) = c.step() {
+                        return Some(wait);
+                    }
+                    let stats = c.finish();
+                    if let HookState::Running(c) =
+                        std::mem::replace(&mut self.state, HookState::Done)
+                    {
+                        self.state = HookState::Draining {
+                            until: Instant::now() + DRAIN,
+                            stats,
+                            _control: c,
+                        };
+                    }
+                }
+                HookState::Draining { until, stats, .. } => {
+                    let now = Instant::now();
+                    if now < *until {
+                        return Some(*until - now);
+                    }
+                    let _ = self.done.try_send(std::mem::take(stats));
+                    self.state = HookState::Done;
+                }
+                HookState::Done => return None,
+            }
+        }
+    }
+}
+
+/// The control thread's state (handed to [`ControlHook`] once the node is set up).
 pub(super) struct ControlThread {
     core: NodeCore,
     ends: Endpoints,
-    poll: Poll,
-    events: Events,
     links: Links,
     /// The condition last accepted (a change is logged once).
     accepted: Condition,
@@ -134,24 +222,24 @@ pub(super) struct ControlThread {
     tick: Histogram,
     /// The command publish call (µs).
     publish: Histogram,
+    /// The loop's state between steps.
+    run: RunState,
+}
+
+/// The tick loop's state between two wake-ups.
+struct RunState {
+    period: Duration,
+    status_period: Duration,
+    cmd: Command,
+    stats: TickStats,
+    next: Instant,
+    next_status: Instant,
+    last_seq: u64,
 }
 
 impl ControlThread {
-    /// Registers both subscriptions with a poll of this thread's own; returns the state and
-    /// the waker that interrupts its wait (call it after setting `stop`). Allocates.
-    pub(super) fn new(
-        core: NodeCore,
-        mut ends: Endpoints,
-        links: Links,
-    ) -> io::Result<(Self, Arc<Waker>)> {
-        let poll = Poll::new()?;
-        poll.registry()
-            .register(&mut ends.joint_states, JOINT_STATES, Interest::READABLE)?;
-        poll.registry()
-            .register(&mut ends.conditions, CONDITIONS, Interest::READABLE)?;
-        if let Some(p) = ends.poses.as_mut() {
-            poll.registry().register(p, POSES, Interest::READABLE)?;
-        }
+    /// The control state of a node set up with `core` and `ends`. Allocates.
+    pub(super) fn new(core: NodeCore, ends: Endpoints, links: Links) -> Result<Self, String> {
         // Checked by `NodeConfig::validate` already.
         let pose_map = core
             .config()
@@ -159,111 +247,141 @@ impl ControlThread {
             .clone()
             .map(TaskPoseMap::new)
             .transpose()
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         let tf = ends.tf.as_ref().map(|_| TfBuffer::new());
-        let waker = Arc::new(Waker::new(poll.registry(), WAKE)?);
         let accepted = core.condition();
-        Ok((
-            Self {
-                core,
-                ends,
-                poll,
-                events: Events::with_capacity(16),
-                links,
-                accepted,
-                pose_map,
-                from_pose: false,
-                tf,
-                dds_in: Histogram::new(),
-                to_control: Histogram::new(),
-                tick: Histogram::new(),
-                publish: Histogram::new(),
-            },
-            waker,
-        ))
+        let cfg = core.config();
+        let period = Duration::from_secs_f64(cfg.period_s);
+        let run = RunState {
+            period,
+            status_period: Duration::from_secs_f64(cfg.status_period_s),
+            cmd: core.command(),
+            stats: TickStats::default(),
+            next: Instant::now() + period,
+            next_status: Instant::now(),
+            last_seq: 0,
+        };
+        Ok(Self {
+            core,
+            ends,
+            links,
+            accepted,
+            pose_map,
+            from_pose: false,
+            tf,
+            dds_in: Histogram::new(),
+            to_control: Histogram::new(),
+            tick: Histogram::new(),
+            publish: Histogram::new(),
+            run,
+        })
     }
 
-    /// Reads, ticks and publishes until `stop`; then sends the final zero / hold command and
-    /// returns the statistics.
-    pub(super) fn run(mut self) -> TickStats {
-        let cfg = self.core.config().clone();
-        let period = Duration::from_secs_f64(cfg.period_s);
-        let status_period = Duration::from_secs_f64(cfg.status_period_s);
-        let mut cmd = self.core.command();
-        let mut stats = TickStats::default();
-        let mut next = Instant::now() + period;
-        let mut next_status = Instant::now();
-        let mut last_seq = 0u64;
-        // Whatever arrived before the first wait is read first.
-        let mut unread = (true, true);
+    /// Reads what the loop delivered, ticks and publishes when due; returns how long the
+    /// loop may wait before the next step (`None`: `stop` is set).
+    ///
+    /// epoll counts whole milliseconds (mio rounds a timeout up), so for timer ticks the
+    /// loop waits the whole milliseconds and the last one is slept here: a tick is then not
+    /// late by up to 1 ms (a message arriving in that sleep is read right after the tick).
+    fn step(&mut self) -> Option<Duration> {
+        let trigger = self.core.config().trigger;
         loop {
             if self.links.stop.load(Ordering::Acquire) {
-                break;
+                return None;
             }
-            unread = self.read_inputs(unread);
+            let unread = self.read_inputs((true, true));
             let now = Instant::now();
             let seq = self.core.inputs().joint_state_seq;
-            let due = match cfg.trigger {
-                Trigger::Timer => now >= next,
-                Trigger::JointStates => seq != last_seq || now >= next,
+            let due = match trigger {
+                Trigger::Timer => now >= self.run.next,
+                Trigger::JointStates => seq != self.run.last_seq || now >= self.run.next,
             };
             if !due {
-                if !(unread.0 || unread.1) {
-                    unread = self.wait(
-                        next.saturating_duration_since(now),
-                        cfg.trigger == Trigger::Timer,
-                    );
+                if unread.0 || unread.1 {
+                    continue;
                 }
-                continue;
-            }
-            self.operator_requests();
-            let t0 = Instant::now();
-            let now_ns = dds::wall_time_ns();
-            let fresh = seq != last_seq;
-            last_seq = seq;
-            let report = self.core.tick(now_ns as f64 * 1e-9, &mut cmd);
-            let us = t0.elapsed().as_secs_f64() * 1e6;
-            self.core.record_tick_time(us);
-            self.tick.record(us);
-            stats.ticks += 1;
-            if report.publish {
-                let sequence = self.core.inputs().command_sequence();
-                let tp = Instant::now();
-                if self.publish_command(&cmd, now_ns, sequence) {
-                    stats.commands += 1;
+                let wait = self.run.next.saturating_duration_since(now);
+                if trigger == Trigger::Timer && wait < Duration::from_millis(1) {
+                    thread::sleep(wait);
+                    continue;
+                }
+                return Some(if trigger == Trigger::Timer {
+                    Duration::from_millis(wait.as_millis() as u64)
                 } else {
-                    stats.publish_errors += 1;
-                }
-                self.publish.record(tp.elapsed().as_secs_f64() * 1e6);
+                    wait
+                });
             }
-            next = match cfg.trigger {
-                Trigger::Timer => {
-                    let n = next + period;
-                    if n <= t0 {
-                        t0 + period
-                    } else {
-                        n
-                    }
+            self.tick_and_publish(seq);
+            // Back to the loop, which transmits the command now; inputs left unread (a
+            // flood) are taken at once.
+            return Some(if unread.0 || unread.1 {
+                Duration::ZERO
+            } else {
+                self.run.next.saturating_duration_since(Instant::now())
+            });
+        }
+    }
+
+    /// One tick on the inputs read, its command published, the status when due.
+    fn tick_and_publish(&mut self, seq: u64) {
+        let cfg = self.core.config();
+        let trigger = cfg.trigger;
+        let period_s = cfg.period_s;
+        self.operator_requests();
+        let t0 = Instant::now();
+        let now_ns = dds::wall_time_ns();
+        let fresh = seq != self.run.last_seq;
+        self.run.last_seq = seq;
+        let report = self.core.tick(now_ns as f64 * 1e-9, &mut self.run.cmd);
+        let us = t0.elapsed().as_secs_f64() * 1e6;
+        self.core.record_tick_time(us);
+        self.tick.record(us);
+        self.run.stats.ticks += 1;
+        if report.publish {
+            let sequence = self.core.inputs().command_sequence();
+            let tp = Instant::now();
+            if self.publish_command(&self.run.cmd, now_ns, sequence) {
+                self.run.stats.commands += 1;
+            } else {
+                self.run.stats.publish_errors += 1;
+            }
+            self.publish.record(tp.elapsed().as_secs_f64() * 1e6);
+        }
+        let period = self.run.period;
+        self.run.next = match trigger {
+            Trigger::Timer => {
+                let n = self.run.next + period;
+                if n <= t0 {
+                    t0 + period
+                } else {
+                    n
                 }
-                // A tick per joint state; without one for the stale timeout the ticks go on
-                // at the period (they command the stale-input stop). A fallback at one period
-                // would race the driver's next state and double the commands.
-                Trigger::JointStates if fresh => {
-                    let stale = self.core.runtime().stale_timeout_s.max(cfg.period_s);
-                    t0 + Duration::from_secs_f64(stale)
-                }
-                Trigger::JointStates => t0 + period,
-            };
-            if t0 >= next_status {
-                next_status = t0 + status_period;
-                if !self.publish_status() {
-                    stats.publish_errors += 1;
-                }
+            }
+            // A tick per joint state; without one for the stale timeout the ticks go on
+            // at the period (they command the stale-input stop). A fallback at one period
+            // would race the driver's next state and double the commands.
+            Trigger::JointStates if fresh => {
+                let stale = self.core.runtime().stale_timeout_s.max(period_s);
+                t0 + Duration::from_secs_f64(stale)
+            }
+            Trigger::JointStates => t0 + period,
+        };
+        if t0 >= self.run.next_status {
+            self.run.next_status = t0 + self.run.status_period;
+            if !self.publish_status() {
+                self.run.stats.publish_errors += 1;
             }
         }
+    }
+
+    /// Sends the final zero / hold command and a `SHUTDOWN` status and returns the
+    /// statistics (the hook then lets the loop deliver them for [`DRAIN`]).
+    fn finish(&mut self) -> TickStats {
+        let mut cmd = self.run.cmd.clone();
         if self.shutdown(&mut cmd) {
-            stats.commands += 1;
+            self.run.stats.commands += 1;
         }
+        let mut stats = std::mem::take(&mut self.run.stats);
         stats.median_us = self.tick.quantile(0.5);
         stats.p99_us = self.tick.quantile(0.99);
         stats.max_us = self.tick.max_us;
@@ -418,38 +536,6 @@ impl ControlThread {
         }
     }
 
-    /// Waits for a message, the waker or `timeout`; returns which subscriptions have news.
-    /// epoll counts whole milliseconds (mio rounds a timeout up), so with `precise` (timer
-    /// ticks) the poll waits the whole milliseconds and a sleep the rest: a tick is then not
-    /// late by up to 1 ms; a message arriving in that sleep is read right after the tick.
-    fn wait(&mut self, timeout: Duration, precise: bool) -> (bool, bool) {
-        let poll_for = if precise {
-            Duration::from_millis(timeout.as_millis() as u64)
-        } else {
-            timeout
-        };
-        if poll_for.is_zero() {
-            thread::sleep(timeout);
-            return (false, false);
-        }
-        if let Err(e) = self.poll.poll(&mut self.events, Some(poll_for)) {
-            if e.kind() != io::ErrorKind::Interrupted {
-                // Not expected; never spin on it.
-                thread::sleep(poll_for.min(Duration::from_millis(1)));
-            }
-            return (true, true);
-        }
-        let mut news = (false, false);
-        for e in self.events.iter() {
-            match e.token() {
-                JOINT_STATES => news.0 = true,
-                CONDITIONS | POSES => news.1 = true,
-                _ => {}
-            }
-        }
-        news
-    }
-
     /// One joint state: its DDS hops recorded from the `info` stamps, validated, recorded.
     fn on_joint_state(&mut self, m: msg::JointState, info: &ros2_client::MessageInfo) {
         let now_ns = dds::wall_time_ns();
@@ -532,8 +618,7 @@ impl ControlThread {
     }
 
     /// The final zero / hold command (ForwardCommandController would repeat the last one
-    /// forever) and a `SHUTDOWN` status; waits for reliable delivery. True when a command
-    /// was published.
+    /// forever) and a `SHUTDOWN` status. True when a command was published.
     fn shutdown(&mut self, cmd: &mut Command) -> bool {
         let sequence =
             self.core.inputs().command_sequence() | crossym_control::node::SHUTDOWN_SEQUENCE_BIT;
@@ -544,8 +629,6 @@ impl ControlThread {
             .ends
             .status
             .publish(self.core.status().to_msg(stamp, &self.links.names));
-        // Let reliable writers deliver (and repair) the last samples before they are dropped.
-        thread::sleep(Duration::from_millis(300));
         sent
     }
 }

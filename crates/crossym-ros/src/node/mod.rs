@@ -1,10 +1,11 @@
 //! The ROS 2 node process: [`NodeCore`] over DDS (ros2-client).
 //!
 //! Threads:
-//! - **Control** (`control.rs`, a dedicated thread): owns both subscriptions
-//!   (`/joint_states` best effort, `~/symmetry_condition` reliable) through a `mio` poll,
-//!   validates each message into the [`NodeCore`], and every `period_s` (or on every
-//!   accepted joint state with `trigger = "joint_states"`) runs [`NodeCore::tick`] —
+//! - **Control** (`control.rs`, the DDS participant's event-loop thread, through RustDDS's
+//!   event-loop hook): takes what the loop delivered on the subscriptions (`/joint_states`
+//!   best effort, `~/symmetry_condition` reliable), validates each message into the
+//!   [`NodeCore`], and every `period_s` (or on every accepted joint state with
+//!   `trigger = "joint_states"`) runs [`NodeCore::tick`] —
 //!   kinematics, policy `π(q, s)`, safety QP — which allocates, locks and logs nothing;
 //!   then it publishes the command, and `~/status` every `status_period_s`. The path of one
 //!   joint state to one command reads in that one file.
@@ -31,13 +32,14 @@ use std::sync::Arc;
 use std::thread;
 use std::time::Duration;
 
-use self::control::{CommandPublisher, ControlThread, Links};
+use self::control::{CommandPublisher, ControlHook, ControlThread, Links};
 use self::io::IoSide;
 use self::params::Operator;
 use self::record::{start_recorder, Recorder};
 use self::services::Services;
 pub use self::stats::{HopStats, TickStats};
 use super::dds::{self, DdsError, DdsSettings};
+use super::event_loop::LoopThread;
 use super::idle_poll::IdlePoll;
 use super::log::{NodeLog, Severity, StatusWatch};
 use crossym_control::node::{InputGate, NodeCore, OutputMode};
@@ -75,7 +77,11 @@ pub fn run(
         Some(dir) => Some(start_recorder(dir, &cfg)?),
         None => None,
     };
-    let ctx = settings.context()?;
+    // The control thread is the participant's event-loop thread: the hook waits for its
+    // state until the node is set up.
+    let shared = Arc::new(LoopThread::default());
+    let (hook, setup_tx, done_rx) = ControlHook::new(shared.clone());
+    let ctx = settings.context_with_hook(Some(Box::new(hook)))?;
     // Operator requests: parameter sets and service calls → the I/O thread (logs them) →
     // the control thread (applies them between ticks).
     let (ops_tx, ops_rx) = std::sync::mpsc::sync_channel::<Operator>(64);
@@ -127,19 +133,24 @@ pub fn run(
         stop: stop.clone(),
         from_io,
     };
-    let (control, waker) =
-        ControlThread::new(core, ends, links).map_err(|e| NodeRunError::Runtime {
-            message: format!("control thread poll: {e}"),
-        })?;
-    let control = thread::Builder::new()
-        .name("crossym-control".into())
-        .spawn(move || control.run())
-        .map_err(|e| NodeRunError::Runtime {
-            message: format!("control thread: {e}"),
-        })?;
+    let control = ControlThread::new(core, ends, links).map_err(|e| NodeRunError::Runtime {
+        message: format!("control thread: {e}"),
+    })?;
+    if setup_tx.send(control).is_err() {
+        return Err(NodeRunError::Runtime {
+            message: "the DDS event loop stopped before the node started".into(),
+        });
+    }
+    let control_thread =
+        shared
+            .wait(Duration::from_secs(5))
+            .ok_or_else(|| NodeRunError::Runtime {
+                message: "the DDS event loop did not start within 5 s".into(),
+            })?;
+    shared.wake();
     // Held until the node stops (the kernel drops the CPU latency request on close).
     let (_cpu_latency, idle_poll) = match &cfg.realtime {
-        Some(rt) => apply_realtime(rt, &control, &mut log),
+        Some(rt) => apply_realtime(rt, control_thread, &mut log),
         None => (None, None),
     };
 
@@ -156,14 +167,8 @@ pub fn run(
     };
     runtime.block_on(io.serve(spinner, &stop));
     stop.store(true, Ordering::Release);
-    if let Err(e) = waker.wake() {
-        // The control thread still sees `stop` at its next tick or timeout.
-        io.log.log(
-            Severity::Warn,
-            &format!("could not wake the control thread: {e}"),
-        );
-    }
-    let stats = finish(control, recorder, io);
+    shared.wake();
+    let stats = finish(&done_rx, recorder, io);
     drop(idle_poll);
     drop(node);
     runtime.shutdown_timeout(Duration::from_millis(200));
@@ -215,14 +220,14 @@ impl Endpoints {
                 CommandPublisher::Array(dds::publisher::<msg::Float64MultiArray>(
                     node,
                     &cfg.topics.command,
-                    dds::qos_reliable(10),
+                    dds::qos_reliable_nonblocking(10),
                 )?)
             }
             OutputMode::Trajectory => {
                 CommandPublisher::Trajectory(dds::publisher::<msg::JointTrajectory>(
                     node,
                     &cfg.topics.command,
-                    dds::qos_reliable(10),
+                    dds::qos_reliable_nonblocking(10),
                 )?)
             }
         };
@@ -250,25 +255,29 @@ impl Endpoints {
                 _ => None,
             },
             command,
-            status: dds::publisher::<msg::Status>(node, &cfg.topics.status, dds::qos_reliable(10))?,
+            status: dds::publisher::<msg::Status>(
+                node,
+                &cfg.topics.status,
+                dds::qos_reliable_nonblocking(10),
+            )?,
         })
     }
 }
 
-/// Applies `[node] realtime` to the control thread (and the DDS threads, the memory, the
-/// CPU latency, the idle pollers) and logs each outcome; returns the CPU latency request
+/// Applies `[node] realtime` to the control thread (the DDS event loop: `dds_priority`
+/// concerns only the discovery thread, which RustDDS keeps apart), the memory, the CPU
+/// latency and the idle pollers, and logs each outcome; returns the CPU latency request
 /// and the pollers, to hold while the node runs.
 fn apply_realtime(
     rt: &crossym_control::realtime::RealtimeConfig,
-    control: &thread::JoinHandle<TickStats>,
+    control: libc::pthread_t,
     log: &mut NodeLog,
 ) -> (
     Option<crossym_control::realtime::CpuLatencyRequest>,
     Option<IdlePoll>,
 ) {
     use crossym_control::realtime;
-    use std::os::unix::thread::JoinHandleExt;
-    let mut outcomes = realtime::apply(rt, control.as_pthread_t());
+    let mut outcomes = realtime::apply(rt, control);
     let mut held = None;
     if let Some(us) = rt.cpu_latency_us {
         let (request, outcome) = realtime::request_cpu_latency(us);
@@ -292,16 +301,19 @@ fn apply_realtime(
     (held, pollers)
 }
 
-/// Joins the control thread (which sent the final command) and the recorder, logs the
-/// last events and the shutdown summary with the hops of the joint state → command path.
+/// Waits for the control thread's statistics (sent after the final command was
+/// delivered), joins the recorder, logs the last events and the shutdown summary with the
+/// hops of the joint state → command path.
 fn finish(
-    control: thread::JoinHandle<TickStats>,
+    done: &std::sync::mpsc::Receiver<TickStats>,
     recorder: Option<(Recorder, thread::JoinHandle<Result<u64, BagError>>)>,
     mut io: IoSide,
 ) -> Result<TickStats, NodeRunError> {
-    let mut stats = control.join().map_err(|_| NodeRunError::Runtime {
-        message: "control thread panicked".into(),
-    })?;
+    let mut stats =
+        done.recv_timeout(Duration::from_secs(10))
+            .map_err(|e| NodeRunError::Runtime {
+                message: format!("control thread: no final statistics ({e})"),
+            })?;
     if let Some((r, handle)) = recorder {
         stats.bag_dropped = r.dropped.load(Ordering::Relaxed);
         drop(r);

@@ -49,7 +49,7 @@ use crate::{
     writer::WriterIngredients,
   },
   structure::{dds_cache::DDSCache, entity::RTPSEntity, guid::*, locator::Locator},
-  StatusEvented,
+  EventLoopHook, StatusEvented,
 };
 #[cfg(feature = "security")]
 use crate::{
@@ -81,6 +81,8 @@ pub struct DomainParticipantBuilder {
   socket_receive_buffer_size: usize,
   socket_send_buffer_size: usize,
 
+  event_loop_hook: Option<Box<dyn EventLoopHook>>,
+
   #[cfg(feature = "security")]
   security_plugins: Option<SecurityPlugins>,
   #[cfg(feature = "security")]
@@ -95,6 +97,7 @@ impl DomainParticipantBuilder {
       same_host_loopback: true,
       socket_receive_buffer_size: Self::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE,
       socket_send_buffer_size: Self::DEFAULT_SOCKET_SEND_BUFFER_SIZE,
+      event_loop_hook: None,
       #[cfg(feature = "security")]
       security_plugins: None,
       #[cfg(feature = "security")]
@@ -185,6 +188,14 @@ impl DomainParticipantBuilder {
     let access = Box::new(security::AccessControlBuiltin::new());
     let crypto = Box::new(security::CryptographicBuiltin::new());
     self.security(auth, access, crypto, configs.into_property_policy());
+    self
+  }
+
+  /// Runs `hook` on the participant's event-loop thread, after each wake-up of
+  /// the loop (see [`EventLoopHook`]): an application can read and write there
+  /// without a thread hand-off in either direction.
+  pub fn event_loop_hook(mut self, hook: Box<dyn EventLoopHook>) -> Self {
+    self.event_loop_hook = Some(hook);
     self
   }
 
@@ -346,6 +357,7 @@ impl DomainParticipantBuilder {
       self.same_host_loopback,
       dp_waker,
       discovery_sample_sender,
+      self.event_loop_hook,
     )?;
 
     // outer DP wrapper
@@ -979,6 +991,7 @@ impl DomainParticipantDisc {
     same_host_loopback: bool,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
+    event_loop_hook: Option<Box<dyn EventLoopHook>>,
   ) -> CreateResult<Self> {
     let dpi = DomainParticipantInner::new(
       domain_id,
@@ -996,6 +1009,7 @@ impl DomainParticipantDisc {
       same_host_loopback,
       dp_waker,
       discovery_sample_sender,
+      event_loop_hook,
     )?;
 
     Ok(Self {
@@ -1238,6 +1252,7 @@ impl DomainParticipantInner {
     same_host_loopback: bool,
     dp_waker: LoopWaker,
     discovery_sample_sender: ReadySender<mio1::Token>,
+    event_loop_hook: Option<Box<dyn EventLoopHook>>,
   ) -> CreateResult<Self> {
     #[cfg(not(feature = "security"))]
     let _dummy = _qos_policies; // to make clippy happy
@@ -1416,7 +1431,8 @@ impl DomainParticipantInner {
           writer_ready_rx,
           dp_waker,
         ) {
-          Ok(dp_event_loop) => {
+          Ok(mut dp_event_loop) => {
+            dp_event_loop.hook = event_loop_hook;
             let _ = ev_ready_tx.send(Ok(()));
             dp_event_loop.event_loop();
           }

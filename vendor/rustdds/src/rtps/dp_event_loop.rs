@@ -52,7 +52,7 @@ use crate::{
   },
   //QosPolicyBuilder,
   //QosPolicies,
-  EndpointDescription,
+  EndpointDescription, EventLoopHook, EventLoopWaker,
 };
 #[cfg(feature = "security")]
 use crate::{
@@ -140,6 +140,10 @@ pub struct DPEventLoop {
   // route same-host peers over loopback. See
   // `src/rtps/loopback_same_host_design.md`.
   same_host_loopback: bool,
+
+  /// Application code run on this thread after each wake-up
+  /// (`DomainParticipantBuilder::event_loop_hook`).
+  pub(crate) hook: Option<Box<dyn EventLoopHook>>,
 }
 
 impl DPEventLoop {
@@ -257,6 +261,7 @@ impl DPEventLoop {
       participant_status_sender,
       discovery_command_sender,
       same_host_loopback,
+      hook: None,
     })
   }
 
@@ -270,6 +275,10 @@ impl DPEventLoop {
     if let Err(e) = ev_wrapper.waker.install(&ev_wrapper.poll, LOOP_WAKE_TOKEN) {
       error!("dp_event_loop failed to install waker: {e}");
       return;
+    }
+    let mut hook_timeout = None;
+    if let Some(hook) = ev_wrapper.hook.as_mut() {
+      hook.start(EventLoopWaker::new(ev_wrapper.waker.clone()));
     }
 
     // Endpoint removals are collected during a wake and applied only after
@@ -302,7 +311,11 @@ impl DPEventLoop {
       } else {
         Duration::from_millis(2)
       };
-      let poll_timeout = timeout_until(ev_wrapper.shared_timer.borrow().next_deadline(), idle_cap);
+      let mut poll_timeout =
+        timeout_until(ev_wrapper.shared_timer.borrow().next_deadline(), idle_cap);
+      if let Some(t) = hook_timeout {
+        poll_timeout = poll_timeout.min(t);
+      }
       match ev_wrapper.poll.poll(&mut events, Some(poll_timeout)) {
         Ok(_) => {}
         Err(e) => {
@@ -389,6 +402,26 @@ impl DPEventLoop {
       // nonblocking-transmit: service the per-socket outbound queues and keep
       // write-readiness interest in sync with what is pending.
       ev_wrapper.service_outbound();
+
+      // The hook sees what this wake-up delivered; what it wrote is transmitted
+      // now (its doorbells are in the queues), not after another poll.
+      if let Some(hook) = ev_wrapper.hook.as_mut() {
+        hook_timeout = hook.run();
+        if ev_wrapper.drain_queues(
+          &mut readers_to_remove,
+          &mut writers_to_remove,
+          &mut preparing_to_stop,
+        ) {
+          return;
+        }
+        for reader_guid in readers_to_remove.drain(..) {
+          ev_wrapper.remove_local_reader(reader_guid);
+        }
+        for writer_guid in writers_to_remove.drain(..) {
+          ev_wrapper.remove_local_writer(&writer_guid);
+        }
+        ev_wrapper.service_outbound();
+      }
     } // loop
   } // fn
 
