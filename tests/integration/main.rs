@@ -10,6 +10,7 @@ mod data;
 mod dds;
 mod demo;
 mod descend;
+mod docs;
 mod equivariant;
 mod equivariant_node;
 mod eval;
