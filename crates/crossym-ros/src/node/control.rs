@@ -498,6 +498,23 @@ impl ControlThread {
     fn operator_requests(&mut self) {
         while let Ok((request, source)) = self.links.from_io.try_recv() {
             let result = self.core.apply(request);
+            // A default condition goes through the input gate as a condition message does;
+            // recorded as one, so replaying the bag applies it at the same point.
+            if let (OperatorRequest::DefaultCondition(c), Ok(()), Some(r)) =
+                (request, &result, &self.links.rec)
+            {
+                let m = msg::SymmetryCondition {
+                    header: msg::Header::default(),
+                    theta: c.theta,
+                    scale: c.scale,
+                    reflection: c.reflection,
+                };
+                r.send(RecordItem::Condition(
+                    m,
+                    dds::wall_time_ns(),
+                    self.core.inputs().condition_seq as u32,
+                ));
+            }
             self.tell(ToIo::Operator {
                 request,
                 source,
