@@ -29,9 +29,16 @@ mod stress;
 mod symmetries;
 mod train;
 
+/// `crossym --version`: the package version and the git commit it was built from
+/// (`build.rs`; `unknown` outside a git checkout), e.g. `crossym 0.1.0 (84615a6)`.
+static VERSION: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+    let hash = option_env!("CROSSYM_GIT_HASH").unwrap_or("unknown");
+    format!("{} ({hash})", env!("CARGO_PKG_VERSION"))
+});
+
 /// Cross-space symmetry compositions for robot policies.
 #[derive(Debug, Parser)]
-#[command(name = "crossym", version, about)]
+#[command(name = "crossym", version = VERSION.as_str(), about)]
 pub struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -24,6 +24,37 @@
 //! overrides), [`pipeline`] (demonstrations → augmentation → training → evaluation, as
 //! library calls) and [`demo`] (the closed loop of `crossym demo`: mock hardware and node
 //! as processes, the conditions published over DDS, the report).
+//!
+//! ## Example: a configuration, read and checked
+//!
+//! Every key is in `docs/reference/config.md`; unknown keys are refused by name.
+//!
+//! ```
+//! use std::path::{Path, PathBuf};
+//!
+//! use crossym::config::Config;
+//!
+//! let text = r#"
+//!     [robot]
+//!     urdf = "urdf/planar_dual_arm.urdf"
+//!     chains = [{ name = "left", base = "base", tip = "left_ee", task = "xy" }]
+//!
+//!     [node]
+//!     period_s = 0.002          # 500 Hz
+//!     safety = { margin = 0.02 }
+//! "#;
+//! let mut cfg = Config::from_toml_str(text, Path::new("arm.toml"))?;
+//! cfg.base_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")); // where `urdf` resolves
+//! let robot = cfg.load_robot()?;
+//! assert_eq!(robot.kinematics.dof(), 4);
+//! let node = cfg.node_config(); // defaults for what the file leaves out
+//! assert_eq!((node.period_s, node.safety.margin, node.stale_timeout_s), (0.002, 0.02, 0.1));
+//!
+//! let typo = text.replace("margin", "margn");
+//! let refused = Config::from_toml_str(&typo, Path::new("arm.toml")).unwrap_err();
+//! assert!(refused.to_string().contains("unknown field `margn`"));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.

@@ -27,6 +27,7 @@ mod policy;
 mod rby1_tasks;
 mod recordings;
 mod redundancy;
+mod reference;
 mod ros;
 mod safety;
 mod servo;

@@ -9,6 +9,31 @@
 //!
 //! Built on [`crossym_math`] (kinematics, symmetries) and [`crossym_io`] (bags); knows
 //! nothing of the node, DDS or config files.
+//!
+//! ## Example: a policy `π(q, s)` over a grid of conditions
+//!
+//! The paper's training grid of `G_MRT` without scaling: θ every 30° in [−180°, 180°] and
+//! both reflections, 26 conditions `s = (θ, λ, σ)`; a tiny untrained policy (random weights
+//! in the shape of a trained one, as [`policy::train()`] returns) evaluated at each.
+//!
+//! ```
+//! use crossym_learn::data::augmentation::GroupGrid;
+//! use crossym_learn::policy::Policy;
+//!
+//! let grid = GroupGrid { rotation_step_deg: Some(30.0), reflection: true, ..GroupGrid::identity() };
+//! grid.validate()?;
+//! let conditions = grid.conditions();
+//! assert_eq!(conditions.len(), 13 * 2);
+//!
+//! let joints = vec!["j1".to_string(), "j2".to_string()];
+//! let policy = Policy::synthetic(2, joints, &[16, 16], 1);
+//! let (q, mut qdot, mut ws) = ([0.4, 1.2], [0.0; 2], policy.workspace()); // rad, rad/s
+//! for s in &conditions {
+//!     policy.velocity(&q, s, &mut qdot, &mut ws);
+//!     assert!(qdot.iter().all(|v| v.is_finite()));
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
