@@ -10,7 +10,10 @@ macro_rules! socketpair_bridge {
       use std::{
         io,
         io::{Read, Write},
-        sync::{Arc, Mutex},
+        sync::{
+          atomic::{AtomicBool, Ordering},
+          Arc, Mutex,
+        },
       };
       #[cfg(not(target_os = "windows"))]
       use std::os::fd::OwnedFd;
@@ -22,13 +25,20 @@ macro_rules! socketpair_bridge {
       #[cfg(not(target_os = "windows"))]
       use socketpair::{socketpair_stream, SocketpairStream};
 
+      // `registered`: the source is registered with a poll. Until then nobody waits on
+      // it, so notifications cost no system call (a reader taken without a poll, e.g.
+      // from an event-loop hook, pays none); registering kicks the source once, since
+      // samples may have arrived before.
       pub struct Source {
         rec: Mutex<$mio::net::TcpStream>,
+        send: Arc<Mutex<$mio::net::TcpStream>>,
+        registered: Arc<AtomicBool>,
       }
 
       #[derive(Clone)]
       pub struct Sender {
         send: Arc<Mutex<$mio::net::TcpStream>>,
+        registered: Arc<AtomicBool>,
       }
 
       #[cfg(not(target_os = "windows"))]
@@ -47,13 +57,15 @@ macro_rules! socketpair_bridge {
         let rec = $mio::net::TcpStream::from_std(std::net::TcpStream::from(OwnedFd::from(rec_sps)));
         let send =
           $mio::net::TcpStream::from_std(std::net::TcpStream::from(OwnedFd::from(send_sps)));
+        let send = Arc::new(Mutex::new(send));
+        let registered = Arc::new(AtomicBool::new(false));
         Ok((
           Source {
             rec: Mutex::new(rec),
+            send: send.clone(),
+            registered: registered.clone(),
           },
-          Sender {
-            send: Arc::new(Mutex::new(send)),
-          },
+          Sender { send, registered },
         ))
       }
 
@@ -69,27 +81,38 @@ macro_rules! socketpair_bridge {
         }
         let (send, _addr_send) = accepted?;
         debug!("IPC socket: {addr:#?} <-> {_addr_send:#?}");
+        let send = Arc::new(Mutex::new(send));
+        let registered = Arc::new(AtomicBool::new(false));
         Ok((
           Source {
             rec: Mutex::new(rec),
+            send: send.clone(),
+            registered: registered.clone(),
           },
-          Sender {
-            send: Arc::new(Mutex::new(send)),
-          },
+          Sender { send, registered },
         ))
+      }
+
+      fn kick(send: &Mutex<$mio::net::TcpStream>) {
+        match send.lock().unwrap().write(&[0xcc]) {
+          Ok(_b) => {}
+          Err(e) => info!("PollEventSender.send: {e}"),
+        }
       }
 
       impl Sender {
         pub fn send(&self) {
-          match self.send.lock().unwrap().write(&[0xcc]) {
-            Ok(_b) => {}
-            Err(e) => info!("PollEventSender.send: {e}"),
+          if self.registered.load(Ordering::Acquire) {
+            kick(&self.send);
           }
         }
       }
 
       impl Source {
         pub fn drain(&self) {
+          if !self.registered.load(Ordering::Acquire) {
+            return;
+          }
           let mut buf = Vec::with_capacity(16);
           match self.rec.lock().unwrap().read_to_end(&mut buf) {
             Ok(_) => (),
@@ -112,7 +135,10 @@ macro_rules! socketpair_bridge {
             .rec
             .lock()
             .unwrap()
-            .register(registry, token, interests)
+            .register(registry, token, interests)?;
+          self.registered.store(true, Ordering::Release);
+          kick(&self.send);
+          Ok(())
         }
 
         fn reregister(
@@ -129,6 +155,7 @@ macro_rules! socketpair_bridge {
         }
 
         fn deregister(&mut self, registry: &$mio::Registry) -> io::Result<()> {
+          self.registered.store(false, Ordering::Release);
           self.rec.lock().unwrap().deregister(registry)
         }
       }

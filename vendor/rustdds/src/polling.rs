@@ -18,6 +18,11 @@ use mio1::{Poll, Token, Waker};
 
 use crate::structure::guid::EntityId;
 
+thread_local! {
+  /// The waker of the event loop whose hook this thread is running (null otherwise).
+  static IN_HOOK: std::cell::Cell<*const ()> = const { std::cell::Cell::new(std::ptr::null()) };
+}
+
 /// One waker for one `Poll`. Share clones freely. `wake` before [`install`](Self::install)
 /// is a no-op; the event loop drains its queues once after installing so anything
 /// enqueued earlier is still observed.
@@ -35,6 +40,16 @@ impl LoopWaker {
 
   /// Register the single waker of `poll` under `token`. Debug builds assert this
   /// happens once: mio 1.2 allows only one `Waker` per `Poll`.
+  /// Runs `f` (the loop's hook) with this waker's wakes from this thread skipped: the
+  /// loop drains its queues after `f` returns.
+  pub(crate) fn while_in_hook<R>(&self, f: impl FnOnce() -> R) -> R {
+    let me = Arc::as_ptr(&self.slot) as *const ();
+    let before = IN_HOOK.with(|h| h.replace(me));
+    let r = f();
+    IN_HOOK.with(|h| h.set(before));
+    r
+  }
+
   pub(crate) fn install(&self, poll: &Poll, token: Token) -> std::io::Result<()> {
     let waker = Waker::new(poll.registry(), token)?;
     if self.slot.set(waker).is_err() {
@@ -44,6 +59,11 @@ impl LoopWaker {
   }
 
   pub(crate) fn wake(&self) {
+    // From this loop's own event-loop hook the wake is not needed: the loop drains its
+    // queues right after the hook returns.
+    if IN_HOOK.with(|h| h.get()) == Arc::as_ptr(&self.slot) as *const () {
+      return;
+    }
     if let Some(waker) = self.slot.get() {
       if let Err(e) = waker.wake() {
         log::debug!("LoopWaker::wake: {e}");

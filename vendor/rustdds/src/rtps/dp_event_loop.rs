@@ -406,7 +406,7 @@ impl DPEventLoop {
       // The hook sees what this wake-up delivered; what it wrote is transmitted
       // now (its doorbells are in the queues), not after another poll.
       if let Some(hook) = ev_wrapper.hook.as_mut() {
-        hook_timeout = hook.run();
+        hook_timeout = ev_wrapper.waker.while_in_hook(|| hook.run());
         if ev_wrapper.drain_queues(
           &mut readers_to_remove,
           &mut writers_to_remove,
