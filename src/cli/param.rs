@@ -1,7 +1,7 @@
 //! `crossym param get|set`: a running node's parameters through its ROS 2 parameter
 //! services (`~/get_parameters`, `~/set_parameters`), for machines without the ROS tools
 //! (`ros2 param get/set`). The settable ones are listed in the node's startup log and in
-//! the README; a refused set prints the node's reason and exits 1.
+//! docs/guide/node.md; a refused set prints the node's reason and exits 1.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};

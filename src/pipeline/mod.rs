@@ -248,9 +248,10 @@ pub fn load_policy_for(kin: &Kinematics, file: &Path) -> Result<Policy, Pipeline
 }
 
 /// How canonicalised policies integrate their lifted flows: Dormand–Prince 5(4) at rtol
-/// 1e-5, atol 1e-7, warm-started from the previous tick's step sizes (the README's
-/// "Canonicalised policies" has the measurement behind the choice: fixed-step RK4 costs
-/// more for large angles and crosses singularities unnoticed; tighter tolerances cost 2×).
+/// 1e-5, atol 1e-7, warm-started from the previous tick's step sizes (the "Canonicalised
+/// policies" entries of bench/runs/ have the measurement behind the choice: fixed-step RK4
+/// costs more for large angles and crosses singularities unnoticed; tighter tolerances cost
+/// 2×).
 pub fn canonical_integrator() -> LiftIntegrator {
     LiftIntegrator::Adaptive {
         settings: crate::symmetry::transfer::flow::FlowSettings {

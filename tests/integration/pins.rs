@@ -5,7 +5,7 @@
 //! swapped policy file, or a change of the rollout, moves them; the tolerance (1e-6
 //! relative) lets a change of floating-point order pass and nothing else.
 //!
-//! The set-level figures of the README (Table II of each protocol) cover whole test sets
+//! The set-level figures of docs/guide/paper.md (Table II of each protocol) cover whole test sets
 //! and take minutes in release; these subsets take seconds in a test build. The paper's
 //! resampled protocol is pinned on a hand-computed example below.
 
@@ -99,7 +99,7 @@ fn shipped_rby1_policies_score_as_shipped() {
 
 // Measured 2026-12-03 with the shipped files (first test demonstration; conditions as
 // above; the planar letters in the drawing's units, RB-Y1 in m). The planar values are this
-// one demonstration's, above the set means of the README's Table II.
+// one demonstration's, above the set means of Table II (docs/guide/paper.md).
 const PIN_HEAD: &[f64] = &[0.3690958861141967, 0.2950935888826398, 0.1841210756467762];
 const PIN_JOINT: &[f64] = &[0.4370075015693828, 0.3158491804252665, 0.23260330907162316];
 const PIN_EQ: &[f64] = &[0.25507247958168766, 0.20399886634311154, 0.1271577488179666];

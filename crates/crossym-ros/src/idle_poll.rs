@@ -14,7 +14,7 @@
 //! long as the node runs: every other thread preempts it at once (the scheduler counts its
 //! CPU as idle when placing a woken thread), so it takes no time from the machine's work,
 //! but the CPU never halts. The cost is the machine's idle time: every CPU shows busy,
-//! draws power and heats. Measured on a 2-vCPU VM (README, issue 20): the round trip's
+//! draws power and heats. Measured on a 2-vCPU VM (bench/runs/): the round trip's
 //! median fell by 13–49 % at 100 Hz and 27–28 % at 1 kHz; keeping the CPUs awake only in
 //! a window of ±0.3 … 3 ms around each expected joint state did not help — a vCPU that has
 //! halted for milliseconds stays slow however early it is woken.

@@ -27,7 +27,7 @@
 //! makes the velocity term dominate and training becomes plain behaviour cloning, whose
 //! rollouts compound their errors. The letter task therefore trains CONDOR's way, on the
 //! rollout term alone (`w_v = 0`), over windows of one second (`s = 10`, `H = 10`): see the
-//! `[train]` section of `config/letters.toml` and README "Measured".
+//! `[train]` section of `config/letters.toml` and docs/PERFORMANCE.md.
 //!
 //! Training runs in `f32` on the CPU. Everything random is seeded from
 //! [`TrainConfig::seed`]: the weights are drawn from a seeded `StdRng` (Glorot uniform,

@@ -191,8 +191,11 @@ impl EventLoopHook for ControlHook {
                     if now < *until {
                         return Some(*until - now);
                     }
-                    let _ = self.done.try_send(std::mem::take(stats));
+                    let stats = std::mem::take(stats);
+                    // The endpoints go first (their removal is queued to this live loop),
+                    // then the statistics, after which the process drops the participant.
                     self.state = HookState::Done;
+                    let _ = self.done.try_send(stats);
                 }
                 HookState::Done => return None,
             }

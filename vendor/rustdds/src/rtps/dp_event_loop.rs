@@ -383,6 +383,13 @@ impl DPEventLoop {
         }
       }
 
+      // The hook sees what this wake-up delivered (the datagrams are in the
+      // readers' caches); what it writes is transmitted by the queue drain and
+      // outbound service below, before the loop polls again.
+      if let Some(hook) = ev_wrapper.hook.as_mut() {
+        hook_timeout = ev_wrapper.waker.while_in_hook(|| hook.run());
+      }
+
       ev_wrapper.drain_timers(preparing_to_stop);
       if ev_wrapper.drain_queues(
         &mut readers_to_remove,
@@ -402,26 +409,6 @@ impl DPEventLoop {
       // nonblocking-transmit: service the per-socket outbound queues and keep
       // write-readiness interest in sync with what is pending.
       ev_wrapper.service_outbound();
-
-      // The hook sees what this wake-up delivered; what it wrote is transmitted
-      // now (its doorbells are in the queues), not after another poll.
-      if let Some(hook) = ev_wrapper.hook.as_mut() {
-        hook_timeout = ev_wrapper.waker.while_in_hook(|| hook.run());
-        if ev_wrapper.drain_queues(
-          &mut readers_to_remove,
-          &mut writers_to_remove,
-          &mut preparing_to_stop,
-        ) {
-          return;
-        }
-        for reader_guid in readers_to_remove.drain(..) {
-          ev_wrapper.remove_local_reader(reader_guid);
-        }
-        for writer_guid in writers_to_remove.drain(..) {
-          ev_wrapper.remove_local_writer(&writer_guid);
-        }
-        ev_wrapper.service_outbound();
-      }
     } // loop
   } // fn
 
