@@ -80,6 +80,7 @@ echo "== docker engine"
 if [ "$engine" = 1 ]; then
     args=(build -f docker/Dockerfile -t "$IMAGE" --build-arg "CARGO_FEATURES=$FEATURES")
     [ "$FEATURES" != humble ] && args+=(--build-arg "ROS_DISTRO=$FEATURES")
+    args+=(--build-arg "CROSSYM_GIT_HASH=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)")
     echo "  docker ${args[*]} ."
     if DOCKER_BUILDKIT=1 docker "${args[@]}" .; then
         pass "docker build (image $IMAGE)"

@@ -7,10 +7,23 @@
 //! - [`node`]: the ROS 2 node around [`crossym_control::NodeCore`]: control thread, I/O
 //!   thread, recording, statistics;
 //! - [`log`]: the node's console and `/rosout` log;
-//! - [`idle_poll`]: the I/O thread's wait on several DDS readers;
+//! - [`idle_poll`]: `[node] realtime.idle_poll`'s pollers, which keep idle CPUs from halting;
 //! - [`replay`]: offline replay of a recorded bag through the node core;
 //! - [`sim`]: mock hardware, the physics robot (MuJoCo, out of process), scenarios and
 //!   the stress campaign.
+//!
+//! ## Example
+//!
+//! Topic names expand as ROS 2 expands them (`~/` private to the node, relative names in
+//! its namespace, absolute names as they are) — what the node subscribes to and what
+//! `crossym ping` and the bag tools look for:
+//!
+//! ```
+//! use crossym_ros::dds::expand_topic;
+//! assert_eq!(expand_topic("~/status", "/", "crossym"), "/crossym/status");
+//! assert_eq!(expand_topic("/joint_states", "/robot", "crossym"), "/joint_states");
+//! assert_eq!(expand_topic("commands", "/robot", "crossym"), "/robot/commands");
+//! ```
 
 #![warn(missing_docs)]
 // Numerical kernels index several arrays with one loop variable; iterator chains obscure them.
