@@ -5,7 +5,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VERSION=0.15.1
-pristine=$(ls -d "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/rustdds-$VERSION 2>/dev/null | head -1)
+registry="${CARGO_HOME:-$HOME/.cargo}/registry/src"
+find_pristine() { find "$registry" -mindepth 2 -maxdepth 2 -type d -name "rustdds-$VERSION" 2>/dev/null | head -1; }
+pristine=$(find_pristine)
 if [ -z "$pristine" ]; then
   # Not in the registry yet: fetch it (the crate is a dependency of nothing else here, so
   # download it through a throw-away manifest).
@@ -13,7 +15,7 @@ if [ -z "$pristine" ]; then
   mkdir -p "$tmp/src" && touch "$tmp/src/lib.rs"
   printf '[package]\nname = "fetch"\nversion = "0.0.0"\nedition = "2021"\n[dependencies]\nrustdds = "=%s"\n' "$VERSION" > "$tmp/Cargo.toml"
   (cd "$tmp" && cargo fetch -q)
-  pristine=$(ls -d "${CARGO_HOME:-$HOME/.cargo}"/registry/src/*/rustdds-$VERSION | head -1)
+  pristine=$(find_pristine)
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

@@ -155,7 +155,9 @@ if "$PY" "$here/checks.py" stage "$stage" && "$PY" "$here/checks.py" embeds "$st
         skip "[a] cargo build of the staged context" "CROSSYM_DOCKER_STAGED_BUILD=0"
     elif [ -z "$bin" ] || [ -z "$tdir" ]; then
         skip "[a] cargo build of the staged context" "no build above to share a target directory with"
-    elif (cd "$stage" && CARGO_TARGET_DIR="$tdir" cargo build --locked --offline --bin crossym \
+    elif (cd "$stage" && CARGO_TARGET_DIR="$tdir" \
+            CROSSYM_GIT_HASH="${CROSSYM_GIT_HASH:-$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)}" \
+            cargo build --locked --offline --bin crossym \
             "${cargo_profile[@]}" "${cargo_features[@]}" -q); then
         pass "[a] cargo build of the staged context" "the crate as the build stage sees it compiles (target dir $tdir)"
     else
