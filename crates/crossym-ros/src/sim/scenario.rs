@@ -112,13 +112,15 @@ pub enum ScenarioError {
 /// The scenario's DDS endpoints: it sends conditions and resets, watches joint states and
 /// the node's status. `map[j]`: where controlled joint `j` is in the joint states.
 struct Endpoints {
-    // Owns the endpoints' participant: kept alive while they are used.
-    _node: ros2_client::Node,
     cond_pub: ros2_client::Publisher<msg::SymmetryCondition>,
     reset_pub: ros2_client::Publisher<msg::Float64MultiArray>,
     js_sub: ros2_client::Subscription<msg::JointState>,
     status_sub: ros2_client::Subscription<msg::Status>,
     map: Vec<usize>,
+    // Owns the endpoints' participant: kept alive while they are used, and dropped after
+    // them (fields drop in order; a participant dropped first leaves the endpoints to
+    // remove themselves from a stopped event loop, which RustDDS logs as errors).
+    _node: ros2_client::Node,
 }
 
 /// What one step recorded from the reset pose on: joint-state times (s since the reset
