@@ -274,41 +274,44 @@ fn teach_guide_runs_top_to_bottom() {
         "the example task moves the left arm: {rest:?} → {goal:?}"
     );
 
-    // Run 1, σ = +1: the left arm performs the task, the right arm holds.
-    let s1 = summary(&task.join("run-1.json"));
-    assert_eq!(s1.violation_count, 0, "{s1:?}");
-    assert_eq!(s1.commands_invalid, 0, "{s1:?}");
-    assert!(s1.commands_received >= 200, "{s1:?}");
-    assert!(
-        commanded_ticks(&output, "σ +1").is_some_and(|n| n >= 250),
-        "the node's status did not show 250 commanded ticks under σ = +1\n{}",
-        tail()
-    );
-    check_run(
-        "σ = +1",
-        &read_joint_states(&task.join("run-1")),
-        &rest,
-        &goal,
-        &[0, 1, 2, 3],
-    );
-
-    // Run 2, σ = −1: the right arm performs the mirror image, the left arm holds.
-    let s2 = summary(&task.join("run-2.json"));
-    assert_eq!(s2.violation_count, 0, "{s2:?}");
-    assert_eq!(s2.commands_invalid, 0, "{s2:?}");
-    assert!(s2.commands_received >= 200, "{s2:?}");
-    assert!(
-        commanded_ticks(&output, "σ -1").is_some_and(|n| n >= 250),
-        "the node's status did not show 250 commanded ticks under σ = −1\n{}",
-        tail()
-    );
-    check_run(
-        "σ = −1",
-        &read_joint_states(&task.join("run-2")),
-        &mirror(&rest),
-        &mirror(&goal),
-        &[4, 5, 6, 7],
-    );
+    // Run 1, σ = +1: the left arm performs the task, the right arm holds. Run 2, σ = −1:
+    // the right arm performs the mirror image, the left arm holds.
+    let runs = [
+        (
+            "σ = +1",
+            "run-1",
+            "σ +1",
+            rest.clone(),
+            goal.clone(),
+            [0, 1, 2, 3],
+        ),
+        (
+            "σ = −1",
+            "run-2",
+            "σ -1",
+            mirror(&rest),
+            mirror(&goal),
+            [4, 5, 6, 7],
+        ),
+    ];
+    for (label, run, status, rest, goal, moving) in runs {
+        let s = summary(&task.join(format!("{run}.json")));
+        assert_eq!(s.violation_count, 0, "{s:?}");
+        assert_eq!(s.commands_invalid, 0, "{s:?}");
+        assert!(s.commands_received >= 200, "{s:?}");
+        assert!(
+            commanded_ticks(&output, status).is_some_and(|n| n >= 250),
+            "the node's status did not show 250 commanded ticks under {label}\n{}",
+            tail()
+        );
+        check_run(
+            label,
+            &read_joint_states(&task.join(run)),
+            &rest,
+            &goal,
+            &moving,
+        );
+    }
     eprintln!(
         "docs teach guide: {} sh blocks in {:.1} s (checks {:.1} s)",
         blocks.len(),
