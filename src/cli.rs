@@ -95,7 +95,8 @@ enum Command {
     /// Exits 1 when a source was refused.
     Demos(demos::DemosArgs),
     /// Run the ROS 2 node: joint states + symmetry condition → policy → safety QP → command.
-    /// Honours ROS_DOMAIN_ID, ROS_LOCALHOST_ONLY, ROS_AUTOMATIC_DISCOVERY_RANGE.
+    /// Honours ROS_DOMAIN_ID, ROS_LOCALHOST_ONLY, ROS_AUTOMATIC_DISCOVERY_RANGE, and ROS
+    /// arguments after `--ros-args` (remaps, parameters, as a launch file passes them).
     Node(node::NodeArgs),
     /// Record topics over DDS into a new rosbag2 MCAP bag until Ctrl-C (the node's own
     /// `--record` also stores what offline replay needs; this recorder does not).

@@ -7,9 +7,12 @@ use std::process::ExitCode;
 use anyhow::Context;
 use crossym::config::Config;
 use crossym::ros::dds::DdsSettings;
+use crossym::ros::ros_args::{fully_qualified, RosArgs};
 use crossym::setup::{node_config, NodeOverrides};
 use crossym::sim::physics::Plant;
 use crossym::sim::{MockHardware, MockHwConfig};
+
+use ros2_client::ParameterValue;
 
 use super::common::{OutputArg, PlantArg};
 
@@ -33,6 +36,17 @@ pub struct MockHwArgs {
     /// of `[mock_hw.mujoco]`, `physics/rby1_mujoco.py`); default: [mock_hw] plant.
     #[arg(long, value_enum)]
     pub plant: Option<PlantArg>,
+    /// ROS 2 arguments, as `crossym node` reads them: `--ros-args -r __node:=NAME -r
+    /// from:=to …` renames the node (`[mock_hw] name`) and its topics (joint states,
+    /// commands); it runs in the root namespace and declares no parameter (`use_sim_time`
+    /// only false). Not with the physics robot.
+    #[arg(
+        value_name = "--ros-args ...",
+        trailing_var_arg = true,
+        allow_hyphen_values = true,
+        num_args = 0..
+    )]
+    pub ros_args: Vec<String>,
 }
 
 /// `crossym mock-hw`. Exits 1 when it saw a limit violation.
@@ -40,7 +54,8 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
     let summary = a.summary.as_deref();
     let cfg = Config::from_file(&a.config)?;
     let node = node_config(&cfg, &NodeOverrides::default())?;
-    let hw_cfg: MockHwConfig = cfg.mock_hw.clone().unwrap_or_default();
+    let ros = super::node::ros_arguments(&a.ros_args)?;
+    let mut hw_cfg: MockHwConfig = cfg.mock_hw.clone().unwrap_or_default();
     hw_cfg.validate().context("[mock_hw]")?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
@@ -51,6 +66,10 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| vec![0.0; kin.dof()]);
     let plant = a.plant.map_or(hw_cfg.plant, Plant::from);
     if plant == Plant::Mujoco {
+        anyhow::ensure!(
+            ros.is_none(),
+            "--ros-args: the physics robot takes no ROS arguments"
+        );
         let limits: Vec<(f64, f64)> = kin.limits().iter().map(|l| (l.lower, l.upper)).collect();
         return physics_robot(&cfg, &hw_cfg, kin.joint_names(), &q0, &limits, summary);
     }
@@ -58,10 +77,13 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
         Some(c) => c.into(),
         None => hw_cfg.command.unwrap_or(node.output),
     };
-    let topic = hw_cfg
+    let mut topic = hw_cfg
         .command_topic
         .clone()
         .unwrap_or_else(|| node.topics.command.clone());
+    if let Some(ros) = &ros {
+        apply_ros_args(ros, &mut hw_cfg, &mut topic)?;
+    }
     let hw = MockHardware::new(
         &robot.model,
         kin.joint_names(),
@@ -79,6 +101,38 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// The ROS arguments of `crossym mock-hw`: `__node` renames it, topic rules rename its
+/// joint-state and command topics (expanded in the root namespace); `__ns` and parameters
+/// are refused (`use_sim_time` false aside), as for a node that declares none.
+fn apply_ros_args(
+    ros: &RosArgs,
+    hw: &mut MockHwConfig,
+    command_topic: &mut String,
+) -> anyhow::Result<()> {
+    let (name, namespace) = ros.node_identity(&hw.name, "/");
+    anyhow::ensure!(
+        namespace == "/",
+        "--ros-args: the mock hardware runs in the root namespace (__ns:={namespace})"
+    );
+    hw.name = name;
+    for topic in [&mut hw.joint_states_topic, command_topic] {
+        if let Some((to, _)) = ros.remap_topic(topic, "/", &hw.name) {
+            *topic = to;
+        }
+    }
+    let fqn = fully_qualified("/", &hw.name);
+    for p in ros.params.for_node(&fqn) {
+        if !(p.name == "use_sim_time" && p.value == ParameterValue::Boolean(false)) {
+            anyhow::bail!(
+                "parameter `{}` from {}: the mock hardware declares no parameters",
+                p.name,
+                p.origin
+            );
+        }
+    }
+    Ok(())
 }
 
 /// `crossym mock-hw --plant mujoco`: replaces this process by the physics robot

@@ -29,6 +29,7 @@ mod recordings;
 mod redundancy;
 mod reference;
 mod ros;
+mod ros_args;
 mod safety;
 mod servo;
 mod sim;

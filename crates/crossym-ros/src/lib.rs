@@ -35,4 +35,5 @@ pub mod idle_poll;
 pub mod log;
 pub mod node;
 pub mod replay;
+pub mod ros_args;
 pub mod sim;

@@ -35,6 +35,7 @@ use std::time::Duration;
 use self::control::{CommandPublisher, ControlHook, ControlThread, Links};
 use self::io::IoSide;
 use self::params::Operator;
+pub use self::params::{apply_start_value, check_start_parameter, StartParamRefusal};
 use self::record::{start_recorder, Recorder};
 use self::services::Services;
 pub use self::stats::{HopStats, TickStats};

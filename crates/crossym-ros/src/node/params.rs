@@ -13,6 +13,7 @@ use std::sync::Arc;
 use ros2_client::{NodeOptions, ParameterValue};
 
 use crossym_control::node::{NodeCore, OperatorRequest, RuntimeBounds};
+use crossym_control::NodeConfig;
 use crossym_control::Severity;
 use crossym_math::symmetry::compose::Condition;
 
@@ -123,6 +124,44 @@ pub(super) fn node_options(
     ops: SyncSender<Operator>,
     started: Arc<AtomicBool>,
 ) -> NodeOptions {
+    let params = declarations(core);
+    let mut options = NodeOptions::new()
+        .enable_rosout(true)
+        .start_parameter_services(true);
+    for (k, v) in &params {
+        options = options.declare_parameter(k, v.clone());
+    }
+    let bounds = core.runtime_bounds();
+    let refusals = ops.clone();
+    // A read-only parameter accepts only its declared value (the declaration itself).
+    let declared = params;
+    options
+        .parameter_validator(Box::new(move |name, value| {
+            let verdict = validate(name, value, &bounds, &declared);
+            if let Err(reason) = &verdict {
+                // Logged by the I/O thread; a full queue only loses the log line.
+                let _ = refusals.try_send(Operator::Refused {
+                    name: name.to_string(),
+                    reason: reason.clone(),
+                });
+            }
+            verdict
+        }))
+        .parameter_set_action(Box::new(move |name, value| {
+            if !started.load(Ordering::Acquire) {
+                return Ok(());
+            }
+            match request_of(name, value, &bounds)? {
+                Some(op) => ops
+                    .try_send(op)
+                    .map_err(|e| format!("`{name}` not applied: the node is busy ({e})")),
+                None => Err(read_only_reason(name)),
+            }
+        }))
+}
+
+/// The node's parameters and their values at start, read-only and settable (module docs).
+fn declarations(core: &NodeCore) -> Vec<(String, ParameterValue)> {
     let cfg = core.config();
     let c = cfg.default_condition;
     let mut params: Vec<(&str, ParameterValue)> = vec![
@@ -166,47 +205,153 @@ pub(super) fn node_options(
     if let Some(p) = &cfg.policy {
         params.push(("policy", ParameterValue::String(p.display().to_string())));
     }
-    let mut options = NodeOptions::new()
-        .enable_rosout(true)
-        .start_parameter_services(true);
-    for (k, v) in &params {
-        options = options.declare_parameter(k, v.clone());
-    }
-    let bounds = core.runtime_bounds();
-    let refusals = ops.clone();
-    // A read-only parameter accepts only its declared value (the declaration itself).
-    let declared: Vec<(String, ParameterValue)> = params
+    params
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
-        .collect();
-    options
-        .parameter_validator(Box::new(move |name, value| {
-            let verdict = match request_of(name, value, &bounds) {
-                Ok(Some(_)) => Ok(()),
-                Ok(None) => match declared.iter().find(|(k, _)| k == name) {
-                    Some((_, v)) if v == value => Ok(()),
-                    _ => Err(read_only_reason(name)),
-                },
-                Err(e) => Err(e),
-            };
-            if let Err(reason) = &verdict {
-                // Logged by the I/O thread; a full queue only loses the log line.
-                let _ = refusals.try_send(Operator::Refused {
-                    name: name.to_string(),
-                    reason: reason.clone(),
-                });
+        .collect()
+}
+
+/// The parameter service's check of a set: a settable parameter's value ([`request_of`]);
+/// any other declared parameter accepts only its declared value.
+fn validate(
+    name: &str,
+    value: &ParameterValue,
+    bounds: &RuntimeBounds,
+    declared: &[(String, ParameterValue)],
+) -> Result<(), String> {
+    match request_of(name, value, bounds)? {
+        Some(_) => Ok(()),
+        None => match declared.iter().find(|(k, _)| k == name) {
+            Some((_, v)) if v == value => Ok(()),
+            _ => Err(read_only_reason(name)),
+        },
+    }
+}
+
+/// Why a parameter given at start (a `--params-file`, `-p`) is refused: the node does not
+/// start.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum StartParamRefusal {
+    /// The node declares no such parameter.
+    #[error("the node declares no parameter `{name}` (it declares {declared})")]
+    Undeclared {
+        /// The parameter.
+        name: String,
+        /// The declared names.
+        declared: String,
+    },
+    /// A read-only parameter given another value than its declared one.
+    #[error("`{name}` is read-only: it accepts only its value from the config and command line, {declared}; got {given}")]
+    ReadOnly {
+        /// The parameter.
+        name: String,
+        /// Its declared value.
+        declared: String,
+        /// The value given.
+        given: String,
+    },
+    /// A settable parameter's value refused by the parameter service's check (wrong type,
+    /// out of its domain).
+    #[error("{reason}")]
+    Invalid {
+        /// The parameter service's reason.
+        reason: String,
+    },
+}
+
+/// A parameter value as a YAML file would hold it (`0.5`, `[0.0, 1.0]`, `"velocity"`).
+fn show(v: &ParameterValue) -> String {
+    fn list<T: std::fmt::Debug>(v: &[T]) -> String {
+        let items: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
+        format!("[{}]", items.join(", "))
+    }
+    match v {
+        ParameterValue::NotSet => "(not set)".into(),
+        ParameterValue::Boolean(b) => format!("{b} (bool)"),
+        ParameterValue::Integer(i) => format!("{i} (integer)"),
+        ParameterValue::Double(d) => format!("{d:?} (double)"),
+        ParameterValue::String(s) => format!("{s:?} (string)"),
+        ParameterValue::ByteArray(b) => format!("{} (byte array)", list(b)),
+        ParameterValue::BooleanArray(b) => format!("{} (bool array)", list(b)),
+        ParameterValue::IntegerArray(i) => format!("{} (integer array)", list(i)),
+        ParameterValue::DoubleArray(d) => format!("{} (double array)", list(d)),
+        ParameterValue::StringArray(s) => format!("{} (string array)", list(s)),
+    }
+}
+
+/// Writes the start value of the settable parameter `name` into `cfg` (checked as a set
+/// is, [`request_of`], except against the bounds fixed at start: those are checked on the
+/// built node by [`check_start_parameter`]); `Ok(false)` when `name` is not settable.
+pub fn apply_start_value(
+    cfg: &mut NodeConfig,
+    name: &str,
+    value: &ParameterValue,
+) -> Result<bool, StartParamRefusal> {
+    let open = RuntimeBounds {
+        max_stale_timeout_s: f64::INFINITY,
+        max_margin: f64::INFINITY,
+    };
+    let op = request_of(name, value, &open).map_err(|reason| StartParamRefusal::Invalid {
+        reason: integer_hint(reason, value),
+    })?;
+    match op {
+        Some(Operator::Node { request, .. }) => match request {
+            OperatorRequest::VelocityScale(s) => cfg.velocity_scale = s,
+            OperatorRequest::StaleTimeout(t) => cfg.stale_timeout_s = t,
+            OperatorRequest::AcceptUntrained(a) => cfg.accept_untrained_conditions = a,
+            OperatorRequest::Margin(m) => cfg.safety.margin = m,
+            OperatorRequest::DefaultCondition(c) => cfg.default_condition = c,
+            _ => return Ok(false),
+        },
+        Some(Operator::LogLevel(l)) => cfg.log_level = l,
+        _ => return Ok(false),
+    }
+    Ok(true)
+}
+
+/// rcl types `1` as an integer: say so where a double was expected.
+fn integer_hint(reason: String, value: &ParameterValue) -> String {
+    match value {
+        ParameterValue::Integer(_) | ParameterValue::IntegerArray(_) => {
+            format!("{reason} (an integer: write 1.0, not 1, for a double)")
+        }
+        _ => reason,
+    }
+}
+
+/// Checks a parameter given at start against the built node's declarations with the
+/// parameter service's own check ([`validate`]); `use_sim_time`, ros2-client's own
+/// parameter, is read-only `false` (the node runs on wall-clock time).
+pub fn check_start_parameter(
+    core: &NodeCore,
+    name: &str,
+    value: &ParameterValue,
+) -> Result<(), StartParamRefusal> {
+    let mut declared = declarations(core);
+    declared.push(("use_sim_time".into(), ParameterValue::Boolean(false)));
+    let Some((_, start)) = declared.iter().find(|(k, _)| k == name) else {
+        let names: Vec<&str> = declared.iter().map(|(k, _)| k.as_str()).collect();
+        return Err(StartParamRefusal::Undeclared {
+            name: name.into(),
+            declared: names.join(", "),
+        });
+    };
+    validate(name, value, &core.runtime_bounds(), &declared).map_err(|reason| {
+        if name == "use_sim_time" {
+            StartParamRefusal::Invalid {
+                reason: "`use_sim_time` must be false: the node runs on wall-clock time".into(),
             }
-            verdict
-        }))
-        .parameter_set_action(Box::new(move |name, value| {
-            if !started.load(Ordering::Acquire) {
-                return Ok(());
+        } else if SETTABLE.iter().any(|(s, _)| *s == name) {
+            StartParamRefusal::Invalid {
+                reason: integer_hint(reason, value),
             }
-            match request_of(name, value, &bounds)? {
-                Some(op) => ops
-                    .try_send(op)
-                    .map_err(|e| format!("`{name}` not applied: the node is busy ({e})")),
-                None => Err(read_only_reason(name)),
+        } else {
+            StartParamRefusal::ReadOnly {
+                name: name.into(),
+                declared: show(start),
+                given: show(value),
             }
-        }))
+        }
+    })
 }
