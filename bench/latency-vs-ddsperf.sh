@@ -20,14 +20,14 @@
 # sequence of octets) at 256 bytes, reliable, keep last 1 (ping/pong's own setting);
 # crossym's JointState of the config's joints (≈ 250 bytes for 8 joints) best effort in,
 # Float64MultiArray reliable out. Needs: ddsperf (Debian's cyclonedds-tools), a release
-# build (cargo build --release), ../shared/tools/netns-run.
+# build (cargo build --release), tools/netns-run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RATE=${1:-100}
 COUNT=${2:-3000}
 CONFIG=${CONFIG:-config/letters.toml}   # e.g. a copy with [node] realtime = { … }
 PING_ARGS=${PING_ARGS:-}                 # e.g. --realtime 90
-NETNS_RUN=${NETNS_RUN:-../shared/tools/netns-run}
+NETNS_RUN=${NETNS_RUN:-tools/netns-run}
 BIN=${BIN:-target/release/crossym}
 command -v ddsperf >/dev/null || { echo "error: ddsperf not found (apt install cyclonedds-tools)" >&2; exit 2; }
 [ -x "$BIN" ] || { echo "error: $BIN missing: cargo build --release" >&2; exit 2; }

@@ -25,7 +25,7 @@
 //!
 //! After criterion, a summary per storage (median of 3 plain passes) prints messages,
 //! seconds, the split and messages per second. The vendor URDF is needed at
-//! `../shared/robots/rby1a/model.urdf`; without it the benchmark prints why and does nothing.
+//! `robots/rby1a/model.urdf` (shipped); without it the benchmark prints why and does nothing.
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -42,10 +42,7 @@ use crossym::msg::{Header, JointState, Time};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-const RBY1_URDF: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/robots/rby1a/model.urdf"
-);
+const RBY1_URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/robots/rby1a/model.urdf");
 const RBY1_CONFIG: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/rby1.toml");
 const TOPIC: &str = "/joint_states";
 /// Publishing period of the driver (ns): 500 Hz.
@@ -390,8 +387,8 @@ fn main() {
     let urdf = Path::new(RBY1_URDF);
     if !urdf.exists() {
         println!(
-            "import benchmark skipped: the RB-Y1 vendor URDF is not at {} (it is not shipped \
-             with crossym; put the RB-Y1 SDK's model.urdf there)",
+            "import benchmark skipped: the RB-Y1 vendor URDF is not at {} (shipped in the \
+             repository: a partial checkout?)",
             urdf.display()
         );
         return;

@@ -8,7 +8,7 @@
 //!   Jacobian via `Kinematics::jacobian`; k: two serial chains).
 //! - `lift/crossym/{rby1_dual14,planar_dual8}`: `Kinematics::lift`.
 //!
-//! The RB-Y1 groups need the vendor URDF at `../shared/robots/rby1a/model.urdf`; the
+//! The RB-Y1 groups need the vendor URDF at `robots/rby1a/model.urdf` (shipped); the
 //! planar group needs `urdf/planar_dual_arm.urdf`. Missing files skip their groups.
 //!
 //! Before timing, the setup checks that k and crossym agree on the tip pose and the full
@@ -32,10 +32,7 @@ use crossym::kinematics::{
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-const RBY1_URDF: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/robots/rby1a/model.urdf"
-);
+const RBY1_URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/robots/rby1a/model.urdf");
 const PLANAR_URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/urdf/planar_dual_arm.urdf");
 
 /// Number of fixed random configurations cycled through by every benchmark.

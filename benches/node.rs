@@ -18,7 +18,7 @@
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
 //!   second DDS participant publishing JointState and timing the arrival of the command the
 //!   node computes from it (median, p99 over 2000 round trips). DDS: run inside
-//!   `../shared/tools/netns-run`.
+//!   `tools/netns-run`.
 //!
 //! - `floor` (after `latency`, in the same run): the machine's own wake-up floor, the
 //!   reference for the round trips: one
@@ -27,7 +27,7 @@
 //!   (20 000) and every 10 ms (3 000); prints how late it woke (median, p99, p99.9, max),
 //!   as `cyclictest` does. No round trip can beat the wake-ups it is made of.
 //!
-//! Run: `../shared/tools/netns-run cargo bench --bench node`.
+//! Run: `tools/netns-run cargo bench --bench node`.
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -97,8 +97,8 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
         "rby1-letters" => ("rby1-letters.toml", false, "pi_mrt_rby1_letters"),
         _ => ("rby1.toml", true, ""),
     };
-    if robot != "planar" && !root().join("../shared/robots/rby1a/model.urdf").exists() {
-        eprintln!("SKIP {robot}: ../shared/robots/rby1a/model.urdf absent");
+    if robot != "planar" && !root().join("robots/rby1a/model.urdf").exists() {
+        eprintln!("SKIP {robot}: robots/rby1a/model.urdf absent");
         return None;
     }
     let cfg = Config::from_file(root().join("config").join(cfg_name)).unwrap();

@@ -67,9 +67,9 @@ fn bench_lift(c: &mut Criterion) {
             })
         });
     }
-    // RB-Y1 (vendor URDF from ../shared; skipped when absent).
+    // RB-Y1 (the vendor URDF in robots/rby1a; skipped when absent).
     let rcfg = root().join("config/rby1.toml");
-    if root().join("../shared/robots/rby1a/model.urdf").exists() {
+    if root().join("robots/rby1a/model.urdf").exists() {
         let cfg = Config::from_file(&rcfg).unwrap();
         let robot = cfg.load_robot().unwrap();
         let kin = &robot.kinematics;
@@ -96,7 +96,7 @@ fn bench_lift(c: &mut Criterion) {
             })
         });
     } else {
-        eprintln!("SKIP rby1: ../shared/robots/rby1a/model.urdf absent");
+        eprintln!("SKIP rby1: robots/rby1a/model.urdf absent");
     }
     g.finish();
     let mut g = c.benchmark_group("check");
@@ -162,8 +162,8 @@ fn bench_morpho(c: &mut Criterion) {
     g.sample_size(20)
         .measurement_time(std::time::Duration::from_secs(3))
         .warm_up_time(std::time::Duration::from_secs(1));
-    let shared = root().join("../shared/robots/rby1a/model.urdf");
-    if shared.exists() {
+    let rby1 = root().join("robots/rby1a/model.urdf");
+    if rby1.exists() {
         // Reference: today's two-chain derivation on RB-Y1's arms (256 samples per direction),
         // then the whole tree (28 joints, 64 samples per element).
         let cfg = Config::from_file(root().join("config/rby1.toml")).unwrap();
@@ -182,7 +182,7 @@ fn bench_morpho(c: &mut Criterion) {
         tails("rby1/two_chains", 500, || {
             black_box(two());
         });
-        let model = RobotModel::from_urdf_file(&shared).unwrap();
+        let model = RobotModel::from_urdf_file(&rby1).unwrap();
         let whole = || {
             derive_body_symmetries(
                 &model,
@@ -198,7 +198,7 @@ fn bench_morpho(c: &mut Criterion) {
             black_box(whole());
         });
     } else {
-        eprintln!("morpho: ../shared absent, RB-Y1 left out");
+        eprintln!("morpho: robots/rby1a/model.urdf absent, RB-Y1 left out");
     }
     let Some(dir) = example_robots() else {
         eprintln!("morpho: example-robot-data absent (bash tests/robots/install.sh)");

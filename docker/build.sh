@@ -210,7 +210,7 @@ pycheck "[c] Dockerfile COPY sources, stages, dockerignore" dockerfile
 echo "== [d] compose.yaml, docker/config/rby1.toml, entrypoint.sh"
 pycheck "[d] compose.yaml" compose
 pycheck "[d] docker/config/rby1.toml vs config/rby1.toml" config
-urdf="${RBY1_URDF:-$repo/../shared/robots/rby1a/model.urdf}"
+urdf="${RBY1_URDF:-$repo/robots/rby1a/model.urdf}"
 if [ -z "$bin" ]; then
     skip "[d] example config loads" "no binary (see [a])"
 elif [ ! -f "$urdf" ]; then

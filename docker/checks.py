@@ -638,12 +638,12 @@ def check_compose() -> int:
                 if v.get("target") == "/config":
                     host_config = p
             else:
-                # Only the vendor URDF may be absent (it is not shipped; RBY1_URDF is documented),
+                # Only the vendor URDF may be absent (a partial checkout; RBY1_URDF is documented),
                 # and only at its default path: a RBY1_URDF that was set must exist.
                 documented = "RBY1_URDF" in raw and not os.environ.get("RBY1_URDF")
                 msg = f"{where}: host path {p} does not exist"
                 if documented:
-                    print(f"  note compose: {msg} (vendor URDF, not shipped: set RBY1_URDF)")
+                    print(f"  note compose: {msg} (vendor URDF: set RBY1_URDF)")
                 else:
                     r.check(False, msg)
     cmd = node.get("command") or []

@@ -1,6 +1,6 @@
 """Build one MJCF string for the RB-Y1 from the vendor SDK's MuJoCo files (no meshes needed).
 
-The vendor's `mujoco/` folder (rby1-sdk, Apache-2.0; never copied into this repo) has
+The vendor's `mujoco/` folder (rby1-sdk, Apache-2.0; the XML of it in robots/rby1a/vendor-sdk/) has
 `model_act.xml` (<option>, <default> with position actuators kp 4000 / kv 400, <actuator>)
 and `rby1_v<version>.xml` (the bodies), which `<include>` per-link `assets/*/assets.xml`
 and `geoms.xml`. Only the XML is present: the .obj meshes are not. MuJoCo >= 3.3 also

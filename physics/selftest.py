@@ -29,8 +29,8 @@ import rby1_mujoco as R  # noqa: E402
 import jtc as J  # noqa: E402
 from rby1_model import VERSIONS, default_urdf, load_model  # noqa: E402
 
-SDK = "/work/shared/robots/rby1a/vendor-sdk/mujoco"
-URDF = "/work/shared/robots/rby1a/model.urdf"
+SDK = os.path.join(HERE, "..", "robots", "rby1a", "vendor-sdk", "mujoco")
+URDF = os.path.join(HERE, "..", "robots", "rby1a", "model.urdf")
 NS = J.NS
 
 results = []

@@ -5,7 +5,7 @@
 //! binary installs a counting global allocator and checks that promise on three robots:
 //! an embedded 3-joint arm (always), the planar dual arm of the paper (when
 //! `urdf/planar_dual_arm.urdf` exists) and RB-Y1 (when the vendor URDF exists in
-//! `../shared`).
+//! `robots/rby1a/`).
 //!
 //! Counting is per thread (tests run in parallel): a thread-local flag switches it on
 //! around the measured calls only. The first allocation of a measured section records a
@@ -217,10 +217,7 @@ const ARM3_URDF: &str = r#"<?xml version="1.0"?>
 "#;
 
 const PLANAR_URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/urdf/planar_dual_arm.urdf");
-const RBY1_URDF: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/robots/rby1a/model.urdf"
-);
+const RBY1_URDF: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/robots/rby1a/model.urdf");
 
 /// Configurations per measured function.
 const N_CONFIGS: usize = 200;
@@ -431,7 +428,9 @@ fn planar_dual_arm_is_allocation_free() {
 #[test]
 fn rby1_is_allocation_free() {
     if !Path::new(RBY1_URDF).exists() {
-        skip::skip(format!("{RBY1_URDF} is absent (RB-Y1 needs ../shared)"));
+        skip::skip(format!(
+            "{RBY1_URDF} is absent (shipped in robots/rby1a/: a partial checkout?)"
+        ));
         return;
     }
     let model = RobotModel::from_urdf_file(RBY1_URDF).expect("RB-Y1 loads");
@@ -575,11 +574,11 @@ fn control_tick_is_allocation_free() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let planar = Config::from_file(root.join("config/letters.toml")).unwrap();
     audit_tick("planar", &planar, 5);
-    if root.join("../shared/robots/rby1a/model.urdf").exists() {
+    if root.join("robots/rby1a/model.urdf").exists() {
         let rby1 = Config::from_file(root.join("config/rby1-letters.toml")).unwrap();
         audit_tick("rby1", &rby1, 6);
     } else {
-        skip::skip("rby1 tick: ../shared/robots/rby1a/model.urdf absent");
+        skip::skip("rby1 tick: robots/rby1a/model.urdf absent");
     }
 }
 
@@ -660,10 +659,10 @@ fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
     use crossym::config::Config;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut configs = vec![("planar", "config/letters.toml")];
-    if root.join("../shared/robots/rby1a/model.urdf").exists() {
+    if root.join("robots/rby1a/model.urdf").exists() {
         configs.push(("rby1", "config/rby1-letters.toml"));
     } else {
-        skip::skip("rby1 canonicalised: ../shared/robots/rby1a/model.urdf absent");
+        skip::skip("rby1 canonicalised: robots/rby1a/model.urdf absent");
     }
     for (robot, file) in configs {
         let cfg = Config::from_file(root.join(file)).unwrap();
@@ -720,10 +719,10 @@ fn task_head_and_its_node_tick_are_allocation_free() {
     use crossym::policy::{task_coordinate_names, AnyPolicy, Policy};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut configs = vec![("planar", "config/letters.toml")];
-    if root.join("../shared/robots/rby1a/model.urdf").exists() {
+    if root.join("robots/rby1a/model.urdf").exists() {
         configs.push(("rby1", "config/rby1-letters.toml"));
     } else {
-        skip::skip("rby1 task head: ../shared/robots/rby1a/model.urdf absent");
+        skip::skip("rby1 task head: robots/rby1a/model.urdf absent");
     }
     for (robot, file) in configs {
         let cfg = Config::from_file(root.join(file)).unwrap();

@@ -1,4 +1,4 @@
-//! Shared fixtures: paths to shipped and shared files, robots, seeded samplers.
+//! Shared fixtures: paths to shipped files, robots, seeded samplers.
 
 #![allow(dead_code)]
 
@@ -16,19 +16,19 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// `../shared` beside the repository.
-pub fn shared() -> PathBuf {
-    root().join("../shared")
+/// The vendor's RB-Y1 models shipped for the tests (`robots/rby1a/`, its README.md).
+pub fn rby1_dir() -> PathBuf {
+    root().join("robots/rby1a")
 }
 
-/// The vendor RB-Y1 URDF, or `None` (with a printed reason) when `../shared` is absent.
+/// The vendor RB-Y1 URDF, or `None` (with a printed reason) when it is absent.
 pub fn rby1_urdf() -> Option<PathBuf> {
-    let p = shared().join("robots/rby1a/model.urdf");
+    let p = rby1_dir().join("model.urdf");
     if p.exists() {
         Some(p)
     } else {
         crate::skip::skip(format!(
-            "{} is absent (RB-Y1 tests need ../shared)",
+            "{} is absent (shipped in robots/rby1a/: a partial checkout?)",
             p.display()
         ));
         None

@@ -1,4 +1,4 @@
-//! LASA letter data: shipped CSV and MAT files agree, the shared copies load, and every
+//! LASA letter data: shipped CSV and MAT files agree, and every
 //! malformed input (truncated or corrupt MAT, bad CSV) is a clear error, never a panic.
 
 use std::path::{Path, PathBuf};
@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use crossym::data::mat5::MatFile;
 use crossym::data::{DataError, LetterSet, MatValue};
 
-use crate::common::{path, shared, temp_dir};
+use crate::common::{path, temp_dir};
 
 const LETTERS: [&str; 2] = ["CShape", "NShape"];
 
@@ -152,31 +152,6 @@ fn shipped_mat_has_the_lasa_layout() {
             let dt = item.field("dt").and_then(MatValue::scalar).unwrap();
             let t = item.field("t").and_then(MatValue::as_real).unwrap();
             assert!((t[1] - t[0] - dt).abs() < 1e-12 && (t[999] - 999.0 * dt).abs() < 1e-9);
-        }
-    }
-}
-
-#[test]
-fn shared_lasa_files_load() {
-    let dir = shared().join("data/lasa");
-    if !dir.exists() {
-        crate::skip::skip(format!(
-            "{} is absent (shared LASA files need ../shared)",
-            dir.display()
-        ));
-        return;
-    }
-    for letter in LETTERS {
-        for ext in ["csv", "mat"] {
-            let p = dir.join(format!("{letter}.{ext}"));
-            let set = LetterSet::load(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-            assert_eq!(set.demos.len(), 7);
-            assert_eq!(
-                set,
-                LetterSet::load(shipped(letter, ext)).unwrap(),
-                "{}",
-                p.display()
-            );
         }
     }
 }

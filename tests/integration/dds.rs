@@ -1,4 +1,4 @@
-//! Real DDS traffic between processes (run inside `../shared/tools/netns-run`, as `.ci/run`
+//! Real DDS traffic between processes (run inside `tools/netns-run`, as `.ci/run`
 //! does): the node and the mock hardware as child processes, the closed loop driven by the
 //! library's scenario runner, and an independent Python peer (PyPI `cyclonedds`).
 //! Each test uses its own ROS_DOMAIN_ID so tests running in parallel do not see each other.

@@ -18,7 +18,7 @@
 //! The robot starts at the first demonstration's first sample (`[mock_hw] initial_q`),
 //! where these conditions were measured with the library before the tests were written:
 //! from the rest posture `[check] reference_q` even λ = 0.73 is infeasible (the pen is
-//! already 8.9 of the reach 12 from the base). Run inside `../shared/tools/netns-run`;
+//! already 8.9 of the reach 12 from the base). Run inside `tools/netns-run`;
 //! ROS_DOMAIN_ID 111 and 112 (no other test uses them).
 
 use std::path::{Path, PathBuf};

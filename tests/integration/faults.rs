@@ -9,7 +9,7 @@
 //! - `crossym mock-hw` with its `nan_position` / `missing_joint` faults (`[mock_hw]`).
 //!
 //! Both must see no position beyond the tightened limits and no non-finite command. Run
-//! inside `../shared/tools/netns-run` (as `.ci/run` does); each run has its own
+//! inside `tools/netns-run` (as `.ci/run` does); each run has its own
 //! ROS_DOMAIN_ID (81–84), so the tests may run in parallel with the others.
 
 use std::path::PathBuf;

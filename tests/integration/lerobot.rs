@@ -191,8 +191,8 @@ fn a_lerobot_source_teaches_rby1_episodes() {
     let (deg, _) = write("src-deg", &["--version", "v2.1", "--degrees"]);
     let base = std::fs::read_to_string(common::path("config/rby1.toml")).unwrap();
     let base = base.replace(
-        "\"../../shared/",
-        &format!("\"{}/", common::shared().canonicalize().unwrap().display()),
+        "\"../robots/",
+        &format!("\"{}/", common::rby1_dir().parent().unwrap().display()),
     );
     let robot = &base[base.find("[robot]").unwrap()..base.find("[kinematics]").unwrap()];
     let dir = common::temp_dir("lerobot-src");

@@ -1,5 +1,5 @@
 //! The node's operator controls from outside, over DDS (run inside
-//! `../shared/tools/netns-run`, as `.ci/run` does): `crossym node` as a child process and an
+//! `tools/netns-run`, as `.ci/run` does): `crossym node` as a child process and an
 //! independent peer (`tests/peer/operator_peer.py`, PyPI `cyclonedds`, no crossym code)
 //! playing both the robot (the rest posture at 100 Hz, never moving, so the policy's
 //! command is constant) and the operator (`~/pause`, `~/reset`, parameter sets in

@@ -2,7 +2,7 @@
 //! model behind an emulation of the vendor's ROS 2 stack (`physics/rby1_mujoco.py`, Cyclone
 //! DDS, a separate process), driven by `crossym demo --plant mujoco` over DDS.
 //!
-//! Needs `../shared` (the vendor's model files) and PyPI `mujoco` + `cyclonedds`
+//! Needs `robots/rby1a/` (the vendor's model files, shipped) and PyPI `mujoco` + `cyclonedds`
 //! (`physics/install.sh`, run by `.ci/run`); missing either is a failure, not a skip.
 //! Both tests run in real time against a robot paced by the wall clock: `.ci/run` runs them
 //! in their own step, one at a time (`--ignored --test-threads=1`), not beside the suite.
@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use super::common::{crossym, root, shared, temp_dir};
+use super::common::{crossym, rby1_dir, root, temp_dir};
 
 /// The RB-Y1 letters config with absolute paths and `edit` applied (text replacements).
 fn letters_config(dir: &Path, edit: &[(&str, &str)]) -> PathBuf {
@@ -20,11 +20,8 @@ fn letters_config(dir: &Path, edit: &[(&str, &str)]) -> PathBuf {
 /// A shipped RB-Y1 config (`config/<name>`) with absolute paths and `edit` applied.
 fn rby1_config(name: &str, dir: &Path, edit: &[(&str, &str)]) -> PathBuf {
     let mut text = std::fs::read_to_string(root().join("config").join(name)).unwrap();
-    let shared = shared()
-        .canonicalize()
-        .expect("../shared beside the repository");
     text = text
-        .replace("\"../../shared/", &format!("\"{}/", shared.display()))
+        .replace("\"../robots/", &format!("\"{}/robots/", root().display()))
         .replace("\"../data/", &format!("\"{}/data/", root().display()));
     for (from, to) in edit {
         assert!(text.contains(from), "config has no `{from}`");
@@ -45,10 +42,8 @@ fn require_physics() {
         "python3 cannot import mujoco and cyclonedds: run `bash physics/install.sh`"
     );
     assert!(
-        shared()
-            .join("robots/rby1a/vendor-sdk/mujoco/model_act.xml")
-            .exists(),
-        "the vendor's MuJoCo model is missing: ../shared/robots/rby1a/vendor-sdk/mujoco"
+        rby1_dir().join("vendor-sdk/mujoco/model_act.xml").exists(),
+        "the vendor's MuJoCo model is missing: robots/rby1a/vendor-sdk/mujoco"
     );
 }
 

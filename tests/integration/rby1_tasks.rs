@@ -1,6 +1,6 @@
 //! The RB-Y1 tasks (issue 7, paper Sec. VI-B): letters drawn in a 3-D plane, synthetic
 //! reaching demonstrations, explicit test-condition lists and the `[M, R]` composition
-//! without scaling. Skipped (with a message) when `../shared` is absent.
+//! without scaling. Skipped (with a message) when `robots/rby1a/` is absent.
 
 use crossym::config::Config;
 use crossym::data::augmentation::{letter_augmenter, GroupGrid, SubGroup};
@@ -15,7 +15,7 @@ fn rby1_config(name: &str) -> Option<Config> {
     Some(common::load_config(name))
 }
 
-/// The config, robot and demonstrations of an RB-Y1 task (None without `../shared`).
+/// The config, robot and demonstrations of an RB-Y1 task (None without `robots/rby1a/`).
 fn rby1_task(
     name: &str,
 ) -> Option<(

@@ -1,5 +1,5 @@
 //! Teach a new task from recorded demonstrations (issue 19), end to end over DDS (run inside
-//! `../shared/tools/netns-run`, as `.ci/run` does):
+//! `tools/netns-run`, as `.ci/run` does):
 //!
 //! 1. the scripted motion (`tests/tools/teach_motion.py`: rest, hold, the LEFT arm's
 //!    minimum-jerk move to a goal, hold) is driven live into `crossym mock-hw --command

@@ -17,7 +17,7 @@ Topics (as seen from the node):
 
 Exit status: 0 all checks passed, 1 a check failed, 2 nothing was received from the
 node within --timeout (reason on stderr). Run it in the same network namespace as the
-node (e.g. both under `../shared/tools/netns-run`): discovery uses SPDP multicast on
+node (e.g. both under `tools/netns-run`): discovery uses SPDP multicast on
 `lo`, which netns-run enables; no CYCLONEDDS_URI is needed there.
 """
 # No `from __future__ import annotations` here: cyclonedds resolves string annotations

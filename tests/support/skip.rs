@@ -1,4 +1,4 @@
-//! Missing preconditions of a test (a file from `../shared`, a PyPI package, a device).
+//! Missing preconditions of a test (a file, a PyPI package, a device).
 //!
 //! On a user's machine a test whose precondition is missing prints `SKIP: why` and passes.
 //! Under `CROSSYM_NO_SKIP=1` (set by `.ci/run`, where everything a test needs is

@@ -3,7 +3,7 @@
 condition every period (the config's test conditions in turn), for minutes; reports what
 an outsider sees on the wire (Cyclone DDS, not crossym's code).
 
-    ../shared/tools/netns-run python3 tests/tools/endurance_dds.py --config config/rby1-letters.toml \
+    tools/netns-run python3 tests/tools/endurance_dds.py --config config/rby1-letters.toml \
         [--crossym target/release/crossym] [--seconds 600] [--period 10] [--urdf PATH]
 
 Reported: joint states received, the smallest distance of any controlled joint to its URDF

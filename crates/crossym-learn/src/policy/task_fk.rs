@@ -217,13 +217,16 @@ mod tests {
         "/../../urdf/planar_dual_arm.urdf"
     );
 
-    /// The vendor RB-Y1 URDF beside the repository (`../shared`), or `None` with a printed
+    /// The vendor RB-Y1 URDF (`robots/rby1a/`, shipped), or `None` with a printed
     /// reason (CI fails on it: `.ci/run` rejects a `SKIP` line).
     fn rby1_urdf() -> Option<std::path::PathBuf> {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../../shared/robots/rby1a/model.urdf");
+        let p =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../robots/rby1a/model.urdf");
         if !p.exists() {
-            eprintln!("SKIP: {} absent (RB-Y1 tests need ../shared)", p.display());
+            eprintln!(
+                "SKIP: {} absent (shipped in robots/rby1a/: a partial checkout?)",
+                p.display()
+            );
         }
         p.exists().then_some(p)
     }

@@ -38,16 +38,18 @@ pub use pinv::{
 pub use robot::{Kinematics, KinematicsSettings, KinematicsWorkspace};
 pub use tree::{LinkTree, LinkTreeWorkspace, TreeLink};
 
-/// The vendor RB-Y1 URDF beside the repository (`../shared`), or `None` with a printed reason
+/// The vendor RB-Y1 URDF (`robots/rby1a/`, shipped), or `None` with a printed reason
 /// (unit tests only; integration tests have their own fixture).
 #[cfg(test)]
 pub(crate) fn test_rby1_urdf() -> Option<std::path::PathBuf> {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/robots/rby1a/model.urdf");
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../robots/rby1a/model.urdf");
     if p.exists() {
         Some(p)
     } else {
-        eprintln!("SKIP: {} absent (RB-Y1 tests need ../shared)", p.display());
+        eprintln!(
+            "SKIP: {} absent (shipped in robots/rby1a/: a partial checkout?)",
+            p.display()
+        );
         None
     }
 }
