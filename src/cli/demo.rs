@@ -3,7 +3,7 @@
 //! publishing symmetry conditions, a per-condition table and a PNG of the letters.
 
 use std::path::PathBuf;
-use std::process::{Command, ExitCode};
+use std::process::{Command, ExitCode, Stdio};
 
 use anyhow::Context;
 use crossym::demo::{self, DemoSettings};
@@ -54,38 +54,143 @@ pub struct DemoArgs {
     pub no_isolation: bool,
 }
 
-const NETNS_ENV: &str = "CROSSYM_PRIVATE_NETNS";
+// Isolation. `crossym demo` re-runs itself inside a private network namespace that holds only
+// a loopback interface with multicast routed to it, so DDS discovery never leaves the
+// machine: `unshare --net` as root; as any other user (or where root may not create a
+// network namespace, e.g. a container without CAP_SYS_ADMIN) `unshare --map-root-user
+// --net`, a user namespace owning the network namespace (the demo runs as root of that
+// namespace; its files are still the caller's). Each way is first probed (the namespace set
+// up, `true` run in it) so that a refused namespace is told apart from a failed demo. When
+// none works (unprivileged user namespaces disabled, e.g. Ubuntu 24.04's
+// `kernel.apparmor_restrict_unprivileged_userns=1`; `unshare` or `ip` missing) the demo runs
+// here without a namespace, localhost-only as with `--no-isolation` (every process's
+// participant on the loopback interface: `demo::start` sets ROS_LOCALHOST_ONLY=1), after one
+// line on stderr saying what failed and how to get isolation.
+//
+// CROSSYM_DEMO_UNSHARE names the `unshare` program (default: `unshare` on PATH). Tests force
+// the fallback with a program that fails, `CROSSYM_DEMO_UNSHARE=/bin/false`
+// (tests/integration/demo.rs).
 
-/// Re-executes this command inside `unshare --net` with loopback multicast (the network
-/// rule: DDS discovery never leaves the machine). Returns `None` when already inside.
+/// Set (to `1`) for the re-executed demo: it already runs inside the namespace.
+const NETNS_ENV: &str = "CROSSYM_PRIVATE_NETNS";
+/// The `unshare` program to run (default `unshare`).
+const UNSHARE_ENV: &str = "CROSSYM_DEMO_UNSHARE";
+/// The namespace's setup, then `exec "$@"` (`ip` lives in /usr/sbin on some systems, which
+/// is not on every user's PATH).
+const NETNS_SETUP: &str = "PATH=$PATH:/usr/sbin:/sbin; ip link set lo up && \
+     ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo && exec \"$@\"";
+
+/// How to isolate: the `unshare` program and its namespace flags.
+struct Unshare {
+    program: std::ffi::OsString,
+    flags: &'static [&'static str],
+}
+
+impl Unshare {
+    /// `program flags -- bash -c SETUP crossym-netns` (the command to run follows).
+    fn command(&self) -> Command {
+        let mut c = Command::new(&self.program);
+        c.args(self.flags)
+            .args(["--", "bash", "-c", NETNS_SETUP, "crossym-netns"]);
+        c
+    }
+
+    /// The command line as the user would type it, for messages.
+    fn describe(&self) -> String {
+        format!(
+            "{} {}",
+            self.program.to_string_lossy(),
+            self.flags.join(" ")
+        )
+    }
+
+    /// Sets the namespace up and runs `true` in it: `Err` says why that failed.
+    fn probe(&self) -> Result<(), String> {
+        let out = self
+            .command()
+            .arg("true")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .output();
+        match out {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                Err(format!("{} not found", self.program.to_string_lossy()))
+            }
+            Err(e) => Err(e.to_string()),
+            Ok(o) if o.status.success() => Ok(()),
+            Ok(o) => {
+                let stderr = String::from_utf8_lossy(&o.stderr);
+                Err(stderr
+                    .lines()
+                    .map(str::trim)
+                    .rfind(|l| !l.is_empty())
+                    .map_or_else(|| format!("exited with {}", o.status), str::to_owned))
+            }
+        }
+    }
+}
+
+/// Re-executes this command inside a private network namespace (see above) and returns
+/// its exit code; `None` when already inside, or when no namespace could be made (then
+/// after the fallback line: the caller runs the demo localhost-only).
 fn isolate() -> anyhow::Result<Option<ExitCode>> {
     if std::env::var_os(NETNS_ENV).is_some() {
         return Ok(None);
     }
-    let exe = std::env::current_exe().context("locating the crossym executable")?;
-    let status = Command::new("unshare")
-        .args([
-            "--net",
-            "--",
-            "bash",
-            "-c",
-            "ip link set lo up && ip link set lo multicast on && \
-             ip route add 224.0.0.0/4 dev lo && exec \"$@\"",
-            "crossym-netns",
-        ])
-        .arg(exe)
-        .args(std::env::args_os().skip(1))
-        .env(NETNS_ENV, "1")
-        .status()
-        .context(
-            "running `unshare --net` (needs util-linux and permission to create a network \
-             namespace; use --no-isolation to run with ROS_LOCALHOST_ONLY=1 only)",
-        )?;
-    Ok(Some(match status.code() {
-        Some(0) => ExitCode::SUCCESS,
-        Some(c) => ExitCode::from(c.clamp(1, 255) as u8),
-        None => ExitCode::from(2),
-    }))
+    let program = std::env::var_os(UNSHARE_ENV).unwrap_or_else(|| "unshare".into());
+    // SAFETY: geteuid has no preconditions and cannot fail.
+    let root = unsafe { libc::geteuid() } == 0;
+    let ways: &[&'static [&'static str]] = if root {
+        &[&["--net"], &["--map-root-user", "--net"]]
+    } else {
+        &[&["--map-root-user", "--net"]]
+    };
+    let mut failed = Vec::new();
+    for flags in ways {
+        let u = Unshare {
+            program: program.clone(),
+            flags,
+        };
+        if let Err(why) = u.probe() {
+            failed.push(format!("`{}`: {why}", u.describe()));
+            continue;
+        }
+        let exe = std::env::current_exe().context("locating the crossym executable")?;
+        let status = u
+            .command()
+            .arg(exe)
+            .args(std::env::args_os().skip(1))
+            .env(NETNS_ENV, "1")
+            .status()
+            .with_context(|| {
+                format!(
+                    "running the demo under `{}` (it worked a moment ago; \
+                     --no-isolation runs it without a namespace, localhost-only)",
+                    u.describe()
+                )
+            })?;
+        return Ok(Some(match status.code() {
+            Some(0) => ExitCode::SUCCESS,
+            Some(c) => ExitCode::from(c.clamp(1, 255) as u8),
+            None => ExitCode::from(2),
+        }));
+    }
+    let how = if root {
+        "allow this process to create namespaces (a container: --cap-add SYS_ADMIN, or \
+         unprivileged user namespaces on the host)"
+    } else {
+        "run it as root, or allow unprivileged user namespaces (Ubuntu 24.04: \
+         `sudo sysctl kernel.apparmor_restrict_unprivileged_userns=0`)"
+    };
+    eprintln!(
+        "crossym demo: no private network namespace ({}); running localhost-only instead \
+         (DDS discovery on the loopback interface, as ROS_LOCALHOST_ONLY=1). For isolation \
+         (util-linux `unshare` and iproute2 `ip` needed): {how}; --no-isolation skips the \
+         attempt.",
+        failed.join("; ")
+    );
+    Ok(None)
 }
 
 impl DemoArgs {
@@ -133,8 +238,13 @@ pub fn run(a: &DemoArgs) -> anyhow::Result<ExitCode> {
     );
     let exe = std::env::current_exe().context("locating the crossym executable")?;
     let started = demo::start(&s, &exe)?;
+    let netns = if std::env::var_os(NETNS_ENV).is_some() {
+        ", private network namespace"
+    } else {
+        ""
+    };
     println!(
-        "  started mock-hw and node (domain {}, localhost only); logs in {}",
+        "  started mock-hw and node (domain {}, localhost only{netns}); logs in {}",
         started.domain_id(),
         s.out.display()
     );
