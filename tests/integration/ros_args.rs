@@ -8,8 +8,8 @@
 //! uses it). Each test collects every failed check and reports them together.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::Duration;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 use crate::common;
 use crate::common::Proc;
@@ -123,9 +123,18 @@ fn ros_args_rename_parameterise_and_remap_a_running_node() {
         at_root.0 != Some(0),
         format!("no node at /crossym: {at_root:?}"),
     );
-    let last = status.1.lines().last().unwrap_or_default().to_string();
+    // Status lines only (`crossym status` names the topic it watches on stderr).
+    let lines: Vec<&str> = status
+        .1
+        .lines()
+        .filter(|l| l.contains(" | joint state age "))
+        .collect();
+    let last = lines.last().copied().unwrap_or_default();
     check(
-        status.0 == Some(0) && !last.is_empty() && !last.starts_with("STALE_JOINT_STATES"),
+        status.0 == Some(0)
+            && status.1.contains("watching /robot1/arm/status")
+            && last.contains(" | ")
+            && !last.starts_with("STALE_JOINT_STATES"),
         format!("status on /robot1/arm/status, joint states from /robot1/js: {status:?}"),
     );
     for line in [
@@ -145,16 +154,34 @@ fn ros_args_rename_parameterise_and_remap_a_running_node() {
     );
 }
 
-/// `crossym node --config config/letters.toml --ros-args ARGS…`: its exit code and output,
-/// waiting at most 60 s (a node that does not refuse runs on and fails the test).
-fn refused(d: &Path, name: &str, args: &[&str]) -> (i32, String) {
+/// `crossym node --config config/letters.toml --ros-args ARGS…`: its exit code (`None`:
+/// still running after 20 s, killed: a node that does not refuse runs on) and output.
+fn refused(d: &Path, name: &str, args: &[&str]) -> (Option<i32>, String) {
     let log = d.join(format!("{name}.log"));
-    let mut cmd = crossym();
+    let f = std::fs::File::create(&log).unwrap();
     let cfg = common::root().join("config/letters.toml");
-    cmd.args(["node", "--config", cfg.to_str().unwrap(), "--ros-args"])
-        .args(args);
-    let mut p = Proc::spawn(cmd, name, DOMAIN + 1, &log);
-    let code = p.wait(Duration::from_secs(60), &log);
+    let mut child = crossym()
+        .args(["node", "--config", cfg.to_str().unwrap(), "--ros-args"])
+        .args(args)
+        .env("ROS_DOMAIN_ID", (DOMAIN + 1).to_string())
+        .env("ROS_LOCALHOST_ONLY", "1")
+        .env("ROS_DISTRO", "humble")
+        .stdout(Stdio::from(f.try_clone().unwrap()))
+        .stderr(Stdio::from(f))
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        if t0.elapsed() > Duration::from_secs(20) {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
     (code, std::fs::read_to_string(&log).unwrap())
 }
 
@@ -198,9 +225,9 @@ fn ros_args_refusals_stop_the_node_at_start() {
     let mut failed = Vec::new();
     for (name, args, want) in &cases {
         let (code, out) = refused(&d, name, args);
-        if code != 2 || !out.contains(want) {
+        if code != Some(2) || !out.contains(want) {
             failed.push(format!(
-                "{name}: exit {code}, want 2 and `{want}` in:\n{out}"
+                "{name}: exit {code:?}, want 2 and `{want}` in:\n{out}"
             ));
         }
     }
