@@ -1429,12 +1429,22 @@ impl Reader {
       unicast_locator_list,
       ..
     } = writer_proxy;
+    // Fast DDS (its GUID prefixes start with its vendor id, 0x010f) takes an empty set
+    // based at 0 as the preemptive ACKNACK and answers it at once with what it wrote to
+    // us before we matched it; an empty set based at 1 only restarts its periodic
+    // heartbeat, so such a sample (a service request, a one-shot publication) would
+    // arrive one heartbeat period (3 s by default) late.
+    let base = if remote_writer_guid.prefix.bytes[..2] == [0x01, 0x0f] {
+      0
+    } else {
+      1
+    };
     self.send_acknack_to(
       flags,
       AckNack {
         reader_id: self.entity_id(),
         writer_id: remote_writer_guid.entity_id,
-        reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(1)),
+        reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(base)),
         count: acknack_count,
       },
       InfoDestination {
