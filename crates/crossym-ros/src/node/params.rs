@@ -136,6 +136,9 @@ pub(super) fn node_options(
     // A read-only parameter accepts only its declared value (the declaration itself).
     let declared = params;
     options
+        .parameter_describer(Box::new(move |name, value| {
+            Some(describe(name, value, &bounds))
+        }))
         .parameter_validator(Box::new(move |name, value| {
             let verdict = validate(name, value, &bounds, &declared);
             if let Err(reason) = &verdict {
@@ -158,6 +161,56 @@ pub(super) fn node_options(
                 None => Err(read_only_reason(name)),
             }
         }))
+}
+
+/// What `ros2 param describe` shows of parameter `name`: its meaning, whether it is
+/// read-only (everything but [`SETTABLE`]), the constraint and, for the bounded doubles,
+/// their range.
+fn describe(
+    name: &str,
+    value: &ParameterValue,
+    bounds: &RuntimeBounds,
+) -> ros2_client::parameters::ParameterDescriptor {
+    use ros2_client::parameters::{NumericRange, ParameterDescriptor};
+    let settable = SETTABLE.iter().find(|(n, _)| *n == name);
+    let range = |from_value: f64, to_value: f64| NumericRange::FloatingPointRange {
+        from_value,
+        to_value,
+        step: 0.0,
+    };
+    let description = match name {
+        "period_s" => "control period (s)",
+        "stale_timeout_s" => "joint states older than this (s) are stale: the command brakes",
+        "check_stamps" => "reject joint states whose non-zero stamp is older than stale_timeout_s",
+        "output" => "what the command topic carries: velocity, position or trajectory",
+        "trigger" => "when the tick runs: timer or joint_states",
+        "joint_names" => "the controlled joints, in the command's order",
+        "topics.command" => "the command topic",
+        "velocity_scale" => "the policy's velocity is multiplied by this before the safety filter",
+        "default_condition" => "the condition [θ rad, λ, σ] applied until a condition arrives",
+        "accept_untrained_conditions" => "accept conditions outside the policy's trained box",
+        "safety.margin" => "distance kept inside the URDF position limits (rad or m)",
+        "log_level" => "console and /rosout log level",
+        "policy" => "the policy file",
+        _ => "",
+    };
+    ParameterDescriptor {
+        name: name.to_string(),
+        param_type: value.to_parameter_type(),
+        description: description.to_string(),
+        additional_constraints: match settable {
+            Some((_, t)) => (*t).to_string(),
+            None => read_only_reason(name),
+        },
+        read_only: settable.is_none(),
+        dynamic_typing: false,
+        range: match name {
+            "velocity_scale" => range(0.0, 1.0),
+            "stale_timeout_s" => range(0.0, bounds.max_stale_timeout_s),
+            "safety.margin" => range(0.0, bounds.max_margin),
+            _ => NumericRange::NotSpecified,
+        },
+    }
 }
 
 /// The node's parameters and their values at start, read-only and settable (module docs).
@@ -281,7 +334,7 @@ fn show(v: &ParameterValue) -> String {
 }
 
 /// Writes the start value of the settable parameter `name` into `cfg` (checked as a set
-/// is, [`request_of`], except against the bounds fixed at start: those are checked on the
+/// is, `request_of`, except against the bounds fixed at start: those are checked on the
 /// built node by [`check_start_parameter`]); `Ok(false)` when `name` is not settable.
 pub fn apply_start_value(
     cfg: &mut NodeConfig,
@@ -321,7 +374,7 @@ fn integer_hint(reason: String, value: &ParameterValue) -> String {
 }
 
 /// Checks a parameter given at start against the built node's declarations with the
-/// parameter service's own check ([`validate`]); `use_sim_time`, ros2-client's own
+/// parameter service's own check (`validate`); `use_sim_time`, ros2-client's own
 /// parameter, is read-only `false` (the node runs on wall-clock time).
 pub fn check_start_parameter(
     core: &NodeCore,
@@ -354,4 +407,46 @@ pub fn check_start_parameter(
             }
         }
     })
+}
+
+#[cfg(test)]
+mod describe_tests {
+    use super::*;
+    use ros2_client::parameters::NumericRange;
+
+    #[test]
+    fn read_only_is_what_cannot_be_set_and_ranges_are_the_bounds() {
+        let b = RuntimeBounds {
+            max_stale_timeout_s: 0.2,
+            max_margin: 0.4,
+        };
+        for (name, v) in [
+            ("period_s", ParameterValue::Double(0.01)),
+            ("output", ParameterValue::String("velocity".into())),
+            ("joint_names", ParameterValue::StringArray(vec![])),
+        ] {
+            let d = describe(name, &v, &b);
+            assert!(d.read_only, "{name}");
+            assert!(
+                d.additional_constraints.contains("restart"),
+                "{name}: {}",
+                d.additional_constraints
+            );
+        }
+        for (name, _) in SETTABLE {
+            let d = describe(name, &ParameterValue::Double(0.1), &b);
+            assert!(!d.read_only, "{name}");
+            assert!(!d.description.is_empty(), "{name}");
+        }
+        match describe("safety.margin", &ParameterValue::Double(0.0), &b).range {
+            NumericRange::FloatingPointRange {
+                from_value,
+                to_value,
+                ..
+            } => {
+                assert_eq!((from_value, to_value), (0.0, 0.4))
+            }
+            _ => panic!("safety.margin has no range"),
+        }
+    }
 }
