@@ -292,6 +292,7 @@ fn bench_latency(_c: &mut Criterion) {
     let settings = DdsSettings {
         domain_id: 77,
         range: DiscoveryRange::Localhost,
+        distro: dds::DEFAULT_DISTRO,
     };
     let stop = Arc::new(AtomicBool::new(false));
     let stop2 = stop.clone();

@@ -23,8 +23,8 @@
 # Exit status: 0 when no check failed (skips are not failures), 1 otherwise.
 #
 # Environment: CROSSYM_DOCKER_PROFILE (release|debug, default release), CARGO_TARGET_DIR
-# (as for cargo), CARGO_FEATURES (humble|jazzy, default humble), CROSSYM_IMAGE (tag, default
-# crossym:humble), CROSSYM_DOCKER_BUILD=0 (never call docker build), RBY1_URDF, PYTHON.
+# (as for cargo), ROS_DISTRO (humble|jazzy|kilted: the base image, default humble; the binary
+# is the same for all), CROSSYM_IMAGE (tag, default crossym:humble), CROSSYM_DOCKER_BUILD=0 (never call docker build), RBY1_URDF, PYTHON.
 set -uo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -33,8 +33,8 @@ cd "$repo" || exit 1
 
 PY="${PYTHON:-python3}"
 PROFILE="${CROSSYM_DOCKER_PROFILE:-release}"
-FEATURES="${CARGO_FEATURES:-humble}"
-IMAGE="${CROSSYM_IMAGE:-crossym:${FEATURES}}"
+DISTRO="${ROS_DISTRO:-humble}"
+IMAGE="${CROSSYM_IMAGE:-crossym:${DISTRO}}"
 work="$(mktemp -d "${TMPDIR:-/tmp}/crossym-docker.XXXXXX")"
 trap 'rm -rf "$work"' EXIT
 
@@ -59,12 +59,11 @@ case "$PROFILE" in
     debug) cargo_profile=() ;;
     *) echo "CROSSYM_DOCKER_PROFILE must be release or debug, not $PROFILE" >&2; exit 2 ;;
 esac
-case "$FEATURES" in
-    humble) cargo_features=() ;;   # the default feature set: CI's build is reused as is
-    *) cargo_features=(--no-default-features --features "$FEATURES") ;;
-esac
+# The default feature set: CI's build is reused as is (the image drops the test-only
+# fault-injection feature).
+cargo_features=()
 
-echo "== docker/build.sh: repo $repo, profile $PROFILE, features $FEATURES"
+echo "== docker/build.sh: repo $repo, profile $PROFILE, ROS $DISTRO"
 if ! command -v "$PY" >/dev/null 2>&1; then
     echo "error: $PY not found: the checks need Python 3" >&2
     exit 1
@@ -78,8 +77,7 @@ if [ "${CROSSYM_DOCKER_BUILD:-1}" != 0 ] && command -v docker >/dev/null 2>&1 \
 fi
 echo "== docker engine"
 if [ "$engine" = 1 ]; then
-    args=(build -f docker/Dockerfile -t "$IMAGE" --build-arg "CARGO_FEATURES=$FEATURES")
-    [ "$FEATURES" != humble ] && args+=(--build-arg "ROS_DISTRO=$FEATURES")
+    args=(build -f docker/Dockerfile -t "$IMAGE" --build-arg "ROS_DISTRO=$DISTRO")
     args+=(--build-arg "CROSSYM_GIT_HASH=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)")
     echo "  docker ${args[*]} ."
     if DOCKER_BUILDKIT=1 docker "${args[@]}" .; then

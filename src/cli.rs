@@ -17,6 +17,7 @@ mod endurance;
 mod eval;
 mod export_lerobot;
 mod info;
+mod lifecycle;
 mod mock_hw;
 mod node;
 mod param;
@@ -74,6 +75,9 @@ enum Command {
     /// Get or set a running node's parameter (like `ros2 param get/set`): e.g.
     /// `crossym param set velocity_scale 0.5`.
     Param(param::ParamArgs),
+    /// Get or change a running node's lifecycle state (like `ros2 lifecycle get/set`):
+    /// e.g. `crossym lifecycle set activate` (the RB-Y1 configs start inactive).
+    Lifecycle(lifecycle::LifecycleArgs),
     /// A live one-line view of a running node's ~/status (code, condition, joint-state age,
     /// tick time, counters, last error). Exits 1 when no node answers within --timeout-s.
     Status(status::StatusArgs),
@@ -138,6 +142,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Endurance(a) => endurance::run(a),
         Command::Status(a) => status::run(a),
         Command::Param(a) => param::run(a),
+        Command::Lifecycle(a) => lifecycle::run(a),
         Command::Ping(a) => ping::run(a),
         Command::Symmetries(a) => symmetries::run(a),
         Command::Density(a) => density::run(a),

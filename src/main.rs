@@ -10,14 +10,6 @@ use clap::Parser;
 mod cli;
 
 fn main() -> ExitCode {
-    // ros2-client warns on every start when ROS_DISTRO is unset; the distribution was
-    // chosen when crossym was built, so say that instead (set before any thread starts).
-    if std::env::var_os("ROS_DISTRO").is_none() {
-        std::env::set_var(
-            "ROS_DISTRO",
-            ros2_client::distributions::COMPILED_ROS_DISTRO.as_str(),
-        );
-    }
     // Libraries log at warn (RustDDS at error) unless RUST_LOG names them: `RUST_LOG=info`
     // raises crossym's own lines, not 1500 lines of DDS internals. ros2-client's service
     // wrapper warns on every request from a client that sends no request identity in the

@@ -186,6 +186,33 @@ pub fn log_tail(p: &Path) -> String {
     lines[lines.len().saturating_sub(30)..].join("\n")
 }
 
+/// `crossym lifecycle set TRANSITION` on the node of `config` in `domain` (over DDS, as an
+/// operator would); panics with the tool's output when it fails.
+pub fn lifecycle_set(config: &Path, domain: u16, transition: &str) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_crossym"))
+        .args([
+            "lifecycle",
+            "set",
+            transition,
+            "--timeout-s",
+            "10",
+            "--config",
+        ])
+        .arg(config)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_LOCALHOST_ONLY", "1")
+        .env("ROS_DISTRO", "humble")
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "crossym lifecycle set {transition}: {text}"
+    );
+    text
+}
+
 /// A child process (its output in a log file, ROS environment for `domain`) killed on drop; `term` sends SIGTERM and returns the exit code.
 pub struct Proc {
     child: Option<Child>,
@@ -321,6 +348,7 @@ impl Watch {
         let ctx = dds::DdsSettings {
             domain_id: domain,
             range: dds::DiscoveryRange::Localhost,
+            distro: dds::DEFAULT_DISTRO,
         }
         .context()
         .expect("DDS context");

@@ -221,6 +221,7 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
     let settings = DdsSettings {
         domain_id: domain,
         range: DiscoveryRange::Localhost,
+        distro: dds::DEFAULT_DISTRO,
     };
     let topics = ScenarioTopics::new(&node_cfg, "/mock_hw/reset");
     let watch = watch(domain, &cfg);
@@ -763,6 +764,8 @@ fn conditions_follow_the_observed_pan_pose() {
         &hw_log,
     );
     let mut node = spawn("node", &["node", "--config", c], domain, &node_log);
+    // The RB-Y1 configs start the node inactive: say go.
+    common::lifecycle_set(&cfg, domain, "activate");
     let json = dir.join("pose.json");
     let out = Command::new("python3")
         .arg(common::root().join("tests/peer/pose_peer.py"))

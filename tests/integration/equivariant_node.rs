@@ -402,6 +402,7 @@ impl Observer {
         let ctx = DdsSettings {
             domain_id: domain,
             range: DiscoveryRange::Localhost,
+            distro: dds::DEFAULT_DISTRO,
         }
         .context()
         .unwrap();

@@ -104,6 +104,7 @@ fn node_talks_on_the_terminal_and_status_shows_it() {
     let settings = DdsSettings {
         domain_id: domain,
         range: DiscoveryRange::Localhost,
+        distro: dds::DEFAULT_DISTRO,
     };
     let ctx = settings.context().unwrap();
     let mut pnode = ctx

@@ -512,3 +512,85 @@ ros_message!(
         ("singularity_factor", "float64"),
     ]
 );
+
+/// `lifecycle_msgs/State`: a state of a managed (lifecycle) node.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LifecycleState {
+    /// State id (`lifecycle_msgs/State` constants: 1 unconfigured, 2 inactive, 3 active,
+    /// 4 finalized, 10–15 the transition states).
+    pub id: u8,
+    /// State label (`"inactive"`, …).
+    pub label: String,
+}
+
+ros_message!(
+    LifecycleState,
+    "lifecycle_msgs::msg::dds_::State_",
+    "lifecycle_msgs/msg/State",
+    [("id", "uint8"), ("label", "string")]
+);
+
+/// `lifecycle_msgs/Transition`: a transition of a managed node.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LifecycleTransition {
+    /// Transition id (`lifecycle_msgs/Transition` constants: 1 configure, 2 cleanup,
+    /// 3 activate, 4 deactivate, 5–7 shutdown, 10–52 the transition states' outcomes).
+    pub id: u8,
+    /// Transition label (`"activate"`, …); a request naming a label is looked up by it.
+    pub label: String,
+}
+
+ros_message!(
+    LifecycleTransition,
+    "lifecycle_msgs::msg::dds_::Transition_",
+    "lifecycle_msgs/msg/Transition",
+    [("id", "uint8"), ("label", "string")]
+);
+
+/// `lifecycle_msgs/TransitionDescription`: a transition with its start and goal states.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TransitionDescription {
+    /// The transition.
+    pub transition: LifecycleTransition,
+    /// The state it starts from.
+    pub start_state: LifecycleState,
+    /// The state it leads to.
+    pub goal_state: LifecycleState,
+}
+
+ros_message!(
+    TransitionDescription,
+    "lifecycle_msgs::msg::dds_::TransitionDescription_",
+    "lifecycle_msgs/msg/TransitionDescription",
+    [
+        ("transition", "lifecycle_msgs/Transition"),
+        ("start_state", "lifecycle_msgs/State"),
+        ("goal_state", "lifecycle_msgs/State"),
+    ]
+);
+
+/// `lifecycle_msgs/TransitionEvent`: published on `~/transition_event` at each step of a
+/// transition.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TransitionEvent {
+    /// When (ns since the Unix epoch).
+    pub timestamp: u64,
+    /// The transition taken.
+    pub transition: LifecycleTransition,
+    /// The state left.
+    pub start_state: LifecycleState,
+    /// The state reached.
+    pub goal_state: LifecycleState,
+}
+
+ros_message!(
+    TransitionEvent,
+    "lifecycle_msgs::msg::dds_::TransitionEvent_",
+    "lifecycle_msgs/msg/TransitionEvent",
+    [
+        ("timestamp", "uint64"),
+        ("transition", "lifecycle_msgs/Transition"),
+        ("start_state", "lifecycle_msgs/State"),
+        ("goal_state", "lifecycle_msgs/State"),
+    ]
+);

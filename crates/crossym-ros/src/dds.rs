@@ -13,7 +13,7 @@
 use std::net::{IpAddr, Ipv4Addr};
 
 use ros2_client::dds::rustdds::{DomainParticipantBuilder, EventLoopHook, Topic};
-use ros2_client::{Context, MessageTypeName, Name, NodeName, QosProfile};
+use ros2_client::{Context, MessageTypeName, Name, NodeName, QosProfile, RosDistro};
 
 use crossym_io::msg::RosMessage;
 
@@ -58,13 +58,39 @@ pub enum DiscoveryRange {
     Localhost,
 }
 
-/// Domain and discovery range of a participant.
+/// The ROS 2 distributions whose wire formats crossym speaks (`ROS_DISTRO` values).
+pub const SUPPORTED_DISTROS: [RosDistro; 3] =
+    [RosDistro::Humble, RosDistro::Jazzy, RosDistro::Kilted];
+
+/// The distribution spoken when `ROS_DISTRO` is unset and no config names one: Humble, the
+/// distribution of the RB-Y1 vendor's driver stack.
+pub const DEFAULT_DISTRO: RosDistro = RosDistro::Humble;
+
+/// Parses a distribution name (`ROS_DISTRO`, `[node] ros_distro`): one of
+/// [`SUPPORTED_DISTROS`], else an error listing them.
+pub fn parse_distro(name: &str) -> Result<RosDistro, String> {
+    let n = name.trim().to_ascii_lowercase();
+    SUPPORTED_DISTROS
+        .into_iter()
+        .find(|d| d.as_str() == n)
+        .ok_or_else(|| {
+            let names: Vec<&str> = SUPPORTED_DISTROS.iter().map(|d| d.as_str()).collect();
+            format!(
+                "unsupported ROS 2 distribution `{name}`: crossym speaks {}",
+                names.join(", ")
+            )
+        })
+}
+
+/// Domain, discovery range and ROS distribution of a participant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DdsSettings {
     /// DDS domain (0–232).
     pub domain_id: u16,
     /// Discovery range.
     pub range: DiscoveryRange,
+    /// The ROS 2 distribution whose graph formats are spoken.
+    pub distro: RosDistro,
 }
 
 impl DdsSettings {
@@ -122,7 +148,24 @@ impl DdsSettings {
                 }
             }
         }
-        Ok(Self { domain_id, range })
+        let distro = match get("ROS_DISTRO").filter(|v| !v.trim().is_empty()) {
+            None => DEFAULT_DISTRO,
+            Some(v) => parse_distro(&v).map_err(|_| DdsError::Env {
+                var: "ROS_DISTRO",
+                value: v,
+                message: "crossym speaks humble, jazzy and kilted",
+            })?,
+        };
+        Ok(Self {
+            domain_id,
+            range,
+            distro,
+        })
+    }
+
+    /// These settings with `distro` (e.g. a config's `[node] ros_distro`).
+    pub fn with_distro(self, distro: RosDistro) -> Self {
+        Self { distro, ..self }
     }
 
     /// Creates the ros2-client context (one DDS participant).
@@ -137,6 +180,9 @@ impl DdsSettings {
         &self,
         hook: Option<Box<dyn EventLoopHook>>,
     ) -> Result<Context, DdsError> {
+        // Process-wide in ros2-client: every participant of a process speaks one
+        // distribution (the last context created sets it; crossym's processes use one).
+        ros2_client::set_ros_distro(self.distro);
         let mut b = DomainParticipantBuilder::new(self.domain_id);
         if let Some(h) = hook {
             b = b.event_loop_hook(h);
@@ -282,4 +328,60 @@ pub async fn shutdown_signal() -> std::io::Result<()> {
         _ = term.recv() => {}
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod distro_tests {
+    use super::*;
+    use ros2_client::entities_info::ParticipantEntitiesInfo;
+    use ros2_client::Gid;
+
+    /// `rmw_dds_common/msg/ParticipantEntitiesInfo` with no node, as rmw writes it:
+    /// `Gid gid` (`char[24] data` up to Humble, `char[16]` from Iron on), then an empty
+    /// `NodeEntitiesInfo[]` (a 4-byte length 0). Built by hand from the .msg definitions.
+    fn by_hand(gid_len: usize) -> Vec<u8> {
+        let mut b: Vec<u8> = (1..=16).collect();
+        b.resize(gid_len, 0);
+        b.extend_from_slice(&0u32.to_le_bytes());
+        b
+    }
+
+    #[test]
+    fn the_discovery_info_speaks_the_selected_distribution() {
+        let gid = Gid::from(std::array::from_fn::<u8, 16, _>(|i| i as u8 + 1));
+        let info = ParticipantEntitiesInfo::new(gid, vec![]);
+        for (name, len) in [("humble", 24), ("jazzy", 16), ("kilted", 16)] {
+            ros2_client::set_ros_distro(parse_distro(name).unwrap());
+            let bytes = cdr_encoding::to_vec::<_, byteorder::LittleEndian>(&info).unwrap();
+            assert_eq!(bytes, by_hand(len), "{name}");
+            let (back, _) = cdr_encoding::from_bytes::<
+                ParticipantEntitiesInfo,
+                byteorder::LittleEndian,
+            >(&by_hand(len))
+            .unwrap();
+            assert_eq!(back.gid(), gid, "{name}");
+        }
+        ros2_client::set_ros_distro(DEFAULT_DISTRO);
+    }
+
+    #[test]
+    fn ros_distro_is_read_and_checked() {
+        let vars = |d: Option<&'static str>| {
+            move |k: &str| (k == "ROS_DISTRO").then(|| d.map(String::from)).flatten()
+        };
+        let s = DdsSettings::from_vars(vars(None)).unwrap();
+        assert_eq!(s.distro, RosDistro::Humble);
+        let s = DdsSettings::from_vars(vars(Some("kilted"))).unwrap();
+        assert_eq!(s.distro, RosDistro::Kilted);
+        let e = DdsSettings::from_vars(vars(Some("foxy")))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("ROS_DISTRO") && e.contains("humble, jazzy and kilted"),
+            "{e}"
+        );
+        assert!(parse_distro("rolling")
+            .unwrap_err()
+            .contains("humble, jazzy, kilted"));
+    }
 }

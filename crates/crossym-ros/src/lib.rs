@@ -32,6 +32,7 @@
 pub mod dds;
 pub mod event_loop;
 pub mod idle_poll;
+pub mod lifecycle_client;
 pub mod log;
 pub mod node;
 pub mod replay;

@@ -22,6 +22,8 @@ pub struct ReplayTopics {
     pub joint_states: String,
     /// Conditions.
     pub condition: String,
+    /// `~/transition_event`: where the policy started or stopped (lifecycle).
+    pub lifecycle: String,
     /// Commands.
     pub command: String,
 }
@@ -34,6 +36,7 @@ impl ReplayTopics {
             joint_states: name(&n.topics.joint_states),
             condition: name(&n.topics.symmetry_condition),
             command: name(&n.topics.command),
+            lifecycle: name(crate::node::LIFECYCLE_TOPIC),
         }
     }
 }
@@ -75,6 +78,8 @@ pub fn replay(
         .topic(&topics.command)
         .ok_or_else(|| missing(&topics.command))?;
     let cond = bag.topic(&topics.condition);
+    let life = bag.topic(&topics.lifecycle);
+    crate::node::lifecycle::apply_autostart(core);
     let n = core.joint_names().len();
     let mut gate = core.input_gate();
     let mut history: VecDeque<Inputs> = VecDeque::new();
@@ -95,6 +100,12 @@ pub fn replay(
         } else if Some(m.topic) == cond {
             let s: msg::SymmetryCondition = bag.decode(i)?;
             let _ = gate.on_condition(&s);
+        } else if Some(m.topic) == life {
+            // A lifecycle transition as the node applied it (between two ticks).
+            let e: msg::TransitionEvent = bag.decode(i)?;
+            let active = e.goal_state.id == crate::node::lifecycle::Primary::Active.id();
+            let _ = core.apply(crossym_control::node::OperatorRequest::Activate(active));
+            continue;
         } else if m.topic == cmd_topic {
             let recorded: Vec<f64> = match mode {
                 OutputMode::Velocity | OutputMode::Position => {

@@ -111,7 +111,17 @@ pub struct NodeConfig {
     /// The policy's velocity is multiplied by this before the safety filter (0 < s ≤ 1;
     /// settable at runtime).
     pub velocity_scale: f64,
+    /// The ROS 2 distribution whose graph formats the node speaks (one of
+    /// [`SUPPORTED_ROS_DISTROS`]); absent: `ROS_DISTRO`, else Humble.
+    pub ros_distro: Option<String>,
+    /// Lifecycle: true = the node activates itself at start (the policy drives the robot on
+    /// the first joint state); false = it starts *inactive* — subscribed, ticking, publishing
+    /// its status but no command — until a lifecycle `activate` (`~/change_state`).
+    pub autostart: bool,
 }
+
+/// `ROS_DISTRO` values the node speaks (`[node] ros_distro`).
+pub const SUPPORTED_ROS_DISTROS: [&str; 3] = ["humble", "jazzy", "kilted"];
 
 impl Default for NodeConfig {
     fn default() -> Self {
@@ -135,6 +145,8 @@ impl Default for NodeConfig {
             task_pose: None,
             singularity: Default::default(),
             velocity_scale: 1.0,
+            ros_distro: None,
+            autostart: true,
         }
     }
 }
@@ -181,6 +193,17 @@ impl NodeConfig {
     /// Checks periods, timeout, names and the default condition; says what is wrong.
     pub fn validate(&self) -> Result<(), NodeError> {
         let bad = |field: &'static str, message: String| NodeError::Config { field, message };
+        if let Some(d) = &self.ros_distro {
+            if !SUPPORTED_ROS_DISTROS.contains(&d.as_str()) {
+                return Err(bad(
+                    "ros_distro",
+                    format!(
+                        "`{d}` is not a supported ROS 2 distribution ({})",
+                        SUPPORTED_ROS_DISTROS.join(", ")
+                    ),
+                ));
+            }
+        }
         if !(self.period_s.is_finite() && self.period_s > 0.0) {
             return Err(bad(
                 "period_s",

@@ -81,6 +81,8 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     singular: SingularityReport,
     paused: bool,
     paused_ticks: u64,
+    /// Lifecycle state not active: braking, then no command.
+    inactive: bool,
     velocity_scale: f64,
     bounds: RuntimeBounds,
     // Status.
@@ -218,6 +220,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             },
             paused: false,
             paused_ticks: 0,
+            inactive: false,
             velocity_scale: cfg.velocity_scale,
             bounds,
             code: StatusCode::StaleJointStates,
@@ -522,6 +525,17 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         };
         if !fresh {
             self.stale_ticks = self.stale_ticks.saturating_add(1);
+        }
+        if self.inactive {
+            // Publishes the braking commands up to the first zero one (a deactivation),
+            // then nothing: an inactive node commands nothing (the robot's controller
+            // holds the last command).
+            let moving = self.v_last.iter().any(|v| *v != 0.0);
+            let mut report = self.braking(now_s, out, StatusCode::Inactive);
+            report.publish &= moving;
+            return report;
+        }
+        if !fresh {
             return self.braking(now_s, out, StatusCode::StaleJointStates);
         }
         if self.paused {
@@ -734,6 +748,12 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
                     self.has_hold = false;
                 }
                 self.paused = p;
+            }
+            OperatorRequest::Activate(a) => {
+                if self.inactive && a {
+                    self.has_hold = false;
+                }
+                self.inactive = !a;
             }
             OperatorRequest::Reset => {
                 self.halted = false;

@@ -45,7 +45,7 @@ mod task_pose;
 mod tf;
 
 pub use self::command::Command;
-pub use self::config::{NodeConfig, OutputMode, TopicNames, Trigger};
+pub use self::config::{NodeConfig, OutputMode, TopicNames, Trigger, SUPPORTED_ROS_DISTROS};
 pub use self::core::NodeCore;
 pub use self::error::NodeError;
 pub use self::feasibility::{ConditionFeasibility, Infeasibility};

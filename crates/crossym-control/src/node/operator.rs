@@ -18,6 +18,9 @@ pub enum OperatorRequest {
     /// Pause (brake to zero at the acceleration limits, then hold) or resume (from the
     /// measured state).
     Pause(bool),
+    /// Lifecycle: activate (`true`: the policy from the measured state) or leave the active
+    /// state (`false`: brake to zero at the acceleration limits, then publish nothing).
+    Activate(bool),
     /// Clears a latched fault (`ROBOT_NOT_FOLLOWING`) and starts again from the measured
     /// state.
     Reset,

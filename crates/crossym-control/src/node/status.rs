@@ -49,6 +49,9 @@ pub enum StatusCode {
     TrackingError = 24,
     /// Paused by an operator (`~/pause`): braking to zero, then holding.
     Paused = 25,
+    /// Lifecycle state not active (inactive, unconfigured or finalized): no command, except
+    /// the braking commands after a deactivation until they reach zero.
+    Inactive = 26,
 }
 
 impl StatusCode {
@@ -70,6 +73,7 @@ impl StatusCode {
             StatusCode::RobotNotFollowing => "ROBOT_NOT_FOLLOWING",
             StatusCode::TrackingError => "TRACKING_ERROR",
             StatusCode::Paused => "PAUSED",
+            StatusCode::Inactive => "INACTIVE",
         }
     }
 
@@ -79,7 +83,7 @@ impl StatusCode {
     }
 
     /// Every code, for table checks.
-    pub const ALL: [StatusCode; 15] = [
+    pub const ALL: [StatusCode; 16] = [
         StatusCode::NoWarning,
         StatusCode::DecelerateForSingularity,
         StatusCode::HaltForSingularity,
@@ -95,6 +99,7 @@ impl StatusCode {
         StatusCode::RobotNotFollowing,
         StatusCode::TrackingError,
         StatusCode::Paused,
+        StatusCode::Inactive,
     ];
 
     /// Human-readable text of the code.
@@ -127,6 +132,9 @@ impl StatusCode {
                 "robot lags its commands by more than safety.tracking_warning"
             }
             StatusCode::Paused => "paused by an operator (~/pause): braking, then holding",
+            StatusCode::Inactive => {
+                "lifecycle state not active: no command until activated (~/change_state)"
+            }
         }
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::msg::{
     Float64MultiArray, JointState, JointTrajectory, PoseStamped, RosMessage, Status,
-    SymmetryCondition,
+    SymmetryCondition, TransitionEvent,
 };
 
 const TIME: &str = "int32 sec\nuint32 nanosec\n";
@@ -22,6 +22,9 @@ const POINT: &str = "float64 x\nfloat64 y\nfloat64 z\n";
 const QUATERNION: &str = "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
 const POSE: &str = "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation\n";
 const POSE_STAMPED: &str = "std_msgs/Header header\ngeometry_msgs/Pose pose\n";
+const LIFECYCLE_STATE: &str = "uint8 id\nstring label\n";
+const LIFECYCLE_TRANSITION: &str = "uint8 id\nstring label\n";
+const TRANSITION_EVENT: &str = "uint64 timestamp\nlifecycle_msgs/Transition transition\nlifecycle_msgs/State start_state\nlifecycle_msgs/State goal_state\n";
 const SYMMETRY_CONDITION: &str = include_str!("../../../../msgs/msg/SymmetryCondition.msg");
 const STATUS: &str = include_str!("../../../../msgs/msg/Status.msg");
 
@@ -76,6 +79,14 @@ const TABLE: &[(&str, &str, &[Dep])] = &[
         &[
             ("std_msgs/Header", HEADER),
             ("builtin_interfaces/Time", TIME),
+        ],
+    ),
+    (
+        TransitionEvent::ROS_TYPE,
+        TRANSITION_EVENT,
+        &[
+            ("lifecycle_msgs/Transition", LIFECYCLE_TRANSITION),
+            ("lifecycle_msgs/State", LIFECYCLE_STATE),
         ],
     ),
     (

@@ -518,6 +518,14 @@ impl ControlThread {
                     self.core.inputs().condition_seq as u32,
                 ));
             }
+            // The policy started or stopped: recorded as the event that ends the transition
+            // (rcl's second event), so replaying the bag applies it at the same point.
+            if let (OperatorRequest::Activate(active), Ok(()), Some(r)) =
+                (request, &result, &self.links.rec)
+            {
+                let event = super::lifecycle::applied_event(active, source, dds::wall_time_ns());
+                r.send(RecordItem::Lifecycle(event, dds::wall_time_ns()));
+            }
             self.tell(ToIo::Operator {
                 request,
                 source,

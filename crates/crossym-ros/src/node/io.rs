@@ -9,6 +9,10 @@ use std::sync::mpsc::{Receiver, SyncSender};
 use std::time::Duration;
 
 use super::control::ToIo;
+use super::lifecycle::{
+    all_states, transition_graph, ChangeStateResponse, GetAvailableStatesResponse,
+    GetAvailableTransitionsResponse, GetStateResponse, Lifecycle, LifecycleServices,
+};
 use super::params::Operator;
 use super::services::{Services, SetBoolResponse, TriggerResponse};
 use crate::dds;
@@ -33,6 +37,10 @@ pub(super) struct IoSide {
     pub(super) services: Services,
     /// Whether the last `~/pause` request paused.
     pub(super) paused: bool,
+    /// The lifecycle state machine.
+    pub(super) lifecycle: Lifecycle,
+    /// `~/change_state`, `~/get_state`, … and `~/transition_event`.
+    pub(super) lifecycle_services: LifecycleServices,
 }
 
 impl IoSide {
@@ -191,6 +199,110 @@ impl IoSide {
         }
     }
 
+    /// `~/change_state` (a transition by id, or by label when one is given) from `caller`:
+    /// takes it, hands the start or stop of the policy to the control thread, publishes the
+    /// two transition events.
+    fn on_change_state(&mut self, id: u8, label: &str, caller: &str) -> ChangeStateResponse {
+        let change = match self.lifecycle.change(id, label) {
+            Ok(c) => c,
+            Err(e) => {
+                self.log.log(
+                    Severity::Warn,
+                    &format!("~/change_state from {caller} refused: {e}"),
+                );
+                return ChangeStateResponse { success: false };
+            }
+        };
+        if let Some(active) = change.activation() {
+            if !self.forward(
+                OperatorRequest::Activate(active),
+                super::lifecycle::source_of(&change),
+            ) {
+                // Not applied: the state stays where the node is.
+                self.lifecycle = Lifecycle::new(change.from);
+                return ChangeStateResponse { success: false };
+            }
+        }
+        self.log.log(
+            Severity::Info,
+            &format!(
+                "lifecycle: {} → {} ({} from {caller}){}",
+                change.from.label(),
+                change.to.label(),
+                change.events[0].transition.label,
+                match change.activation() {
+                    Some(true) => ": the policy runs from the measured state",
+                    Some(false) => ": braking to zero, then no command",
+                    None => "",
+                }
+            ),
+        );
+        for e in change.events {
+            let ev = crossym_io::msg::TransitionEvent {
+                timestamp: dds::wall_time_ns(),
+                transition: e.transition,
+                start_state: e.start_state,
+                goal_state: e.goal_state,
+            };
+            if let Err(err) = self.lifecycle_services.events.publish(ev) {
+                self.log.log(
+                    Severity::Warn,
+                    &format!("~/transition_event not published: {err:?}"),
+                );
+            }
+        }
+        ChangeStateResponse { success: true }
+    }
+
+    /// Answers the four lifecycle queries and `~/change_state`; `false` when no request
+    /// came (nothing to do).
+    async fn serve_lifecycle(&mut self, which: LifecycleRequest) {
+        let s = &self.lifecycle_services;
+        let sent = match which {
+            LifecycleRequest::Change(id, req) => {
+                let r = self.on_change_state(
+                    req.transition.id,
+                    &req.transition.label,
+                    &format!("{:?}", id.writer_gid),
+                );
+                self.lifecycle_services
+                    .change_state
+                    .async_send_response(id, r)
+                    .await
+            }
+            LifecycleRequest::GetState(id) => {
+                let r = GetStateResponse {
+                    current_state: self.lifecycle.state().state(),
+                };
+                s.get_state.async_send_response(id, r).await
+            }
+            LifecycleRequest::States(id) => {
+                let r = GetAvailableStatesResponse {
+                    available_states: all_states(),
+                };
+                s.get_available_states.async_send_response(id, r).await
+            }
+            LifecycleRequest::Transitions(id) => {
+                let r = GetAvailableTransitionsResponse {
+                    available_transitions: self.lifecycle.available_transitions(),
+                };
+                s.get_available_transitions.async_send_response(id, r).await
+            }
+            LifecycleRequest::Graph(id) => {
+                let r = GetAvailableTransitionsResponse {
+                    available_transitions: transition_graph(),
+                };
+                s.get_transition_graph.async_send_response(id, r).await
+            }
+        };
+        if let Err(e) = sent {
+            self.log.log(
+                Severity::Warn,
+                &format!("lifecycle: response not sent: {e:?}"),
+            );
+        }
+    }
+
     /// The I/O loop: the spinner, signals, and every 20 ms the control thread's events and
     /// `stop`; returns on a signal or `stop`.
     pub(super) async fn serve(&mut self, spinner: ros2_client::Spinner, stop: &AtomicBool) {
@@ -219,6 +331,26 @@ impl IoSide {
                     }
                     Err(e) => self.log.limited("service", Severity::Warn, &format!("~/reset: bad request: {e:?}")),
                 },
+                r = self.lifecycle_services.change_state.async_receive_request() => match r {
+                    Ok((id, req)) => self.serve_lifecycle(LifecycleRequest::Change(id, req)).await,
+                    Err(e) => self.log.limited("service", Severity::Warn, &format!("~/change_state: bad request: {e:?}")),
+                },
+                r = self.lifecycle_services.get_state.async_receive_request() => match r {
+                    Ok((id, _)) => self.serve_lifecycle(LifecycleRequest::GetState(id)).await,
+                    Err(e) => self.log.limited("service", Severity::Warn, &format!("~/get_state: bad request: {e:?}")),
+                },
+                r = self.lifecycle_services.get_available_states.async_receive_request() => match r {
+                    Ok((id, _)) => self.serve_lifecycle(LifecycleRequest::States(id)).await,
+                    Err(e) => self.log.limited("service", Severity::Warn, &format!("~/get_available_states: bad request: {e:?}")),
+                },
+                r = self.lifecycle_services.get_available_transitions.async_receive_request() => match r {
+                    Ok((id, _)) => self.serve_lifecycle(LifecycleRequest::Transitions(id)).await,
+                    Err(e) => self.log.limited("service", Severity::Warn, &format!("~/get_available_transitions: bad request: {e:?}")),
+                },
+                r = self.lifecycle_services.get_transition_graph.async_receive_request() => match r {
+                    Ok((id, _)) => self.serve_lifecycle(LifecycleRequest::Graph(id)).await,
+                    Err(e) => self.log.limited("service", Severity::Warn, &format!("~/get_transition_graph: bad request: {e:?}")),
+                },
                 _ = poll.tick() => {
                     self.drain();
                     if stop.load(Ordering::Acquire) {
@@ -230,9 +362,23 @@ impl IoSide {
     }
 }
 
+/// A lifecycle service request to answer.
+enum LifecycleRequest {
+    Change(
+        ros2_client::service::RmwRequestId,
+        super::lifecycle::ChangeStateRequest,
+    ),
+    GetState(ros2_client::service::RmwRequestId),
+    States(ros2_client::service::RmwRequestId),
+    Transitions(ros2_client::service::RmwRequestId),
+    Graph(ros2_client::service::RmwRequestId),
+}
+
 /// One line for an operator request.
 fn describe(r: &OperatorRequest) -> String {
     match r {
+        OperatorRequest::Activate(true) => "activate".into(),
+        OperatorRequest::Activate(false) => "deactivate".into(),
         OperatorRequest::Pause(true) => "pause".into(),
         OperatorRequest::Pause(false) => "resume".into(),
         OperatorRequest::Reset => "reset".into(),

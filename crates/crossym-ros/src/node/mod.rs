@@ -21,6 +21,7 @@
 
 mod control;
 mod io;
+pub mod lifecycle;
 mod params;
 mod record;
 mod services;
@@ -36,6 +37,7 @@ use self::control::{CommandPublisher, ControlHook, ControlThread, Links};
 use self::io::IoSide;
 use self::params::Operator;
 pub use self::params::{apply_start_value, check_start_parameter, StartParamRefusal};
+pub use self::record::LIFECYCLE_TOPIC;
 use self::record::{start_recorder, Recorder};
 use self::services::Services;
 pub use self::stats::{HopStats, TickStats};
@@ -68,12 +70,22 @@ pub enum NodeRunError {
 /// thread (`ControlThread::run`) and the I/O loop (`IoSide::serve`) run until a signal,
 /// and `finish` joins them and writes the shutdown summary.
 pub fn run(
-    core: NodeCore,
+    mut core: NodeCore,
     settings: DdsSettings,
     stop: Option<Arc<AtomicBool>>,
     record: Option<&Path>,
 ) -> Result<TickStats, NodeRunError> {
     let cfg = core.config().clone();
+    lifecycle::apply_autostart(&mut core);
+    let settings = match &cfg.ros_distro {
+        // Checked against SUPPORTED_ROS_DISTROS when the config was read.
+        Some(d) => settings.with_distro(dds::parse_distro(d).map_err(|_| DdsError::Env {
+            var: "[node] ros_distro",
+            value: d.clone(),
+            message: "crossym speaks humble, jazzy and kilted",
+        })?),
+        None => settings,
+    };
     let recorder = match record {
         Some(dir) => Some(start_recorder(dir, &cfg)?),
         None => None,
@@ -99,6 +111,7 @@ pub fn run(
         })?;
     let ends = Endpoints::create(&mut node, &cfg)?;
     let services = Services::create(&mut node)?;
+    let lifecycle_services = lifecycle::LifecycleServices::create(&mut node)?;
     started.store(true, Ordering::Release);
     let logger = node.logging_handle();
     let spinner = node.spinner().map_err(|e| DdsError::Create {
@@ -165,6 +178,12 @@ pub fn run(
         to_control,
         services,
         paused: false,
+        lifecycle: lifecycle::Lifecycle::new(if cfg.autostart {
+            lifecycle::Primary::Active
+        } else {
+            lifecycle::Primary::Inactive
+        }),
+        lifecycle_services,
     };
     runtime.block_on(io.serve(spinner, &stop));
     stop.store(true, Ordering::Release);
@@ -392,7 +411,7 @@ fn startup_summary(
             }
         ),
         format!(
-            "topics: in {} (JointState, best effort, keep last 5), {} (SymmetryCondition, reliable, keep last 10); out {} ({}, reliable, keep last 10), {} (Status every {} s, reliable, keep last 10); DDS domain {}",
+            "topics: in {} (JointState, best effort, keep last 5), {} (SymmetryCondition, reliable, keep last 10); out {} ({}, reliable, keep last 10), {} (Status every {} s, reliable, keep last 10); DDS domain {}, ROS 2 {} graph formats",
             topic(&cfg.topics.joint_states),
             topic(&cfg.topics.symmetry_condition),
             topic(&cfg.topics.command),
@@ -402,7 +421,8 @@ fn startup_summary(
             },
             topic(&cfg.topics.status),
             cfg.status_period_s,
-            settings.domain_id
+            settings.domain_id,
+            settings.distro
         ),
         format!(
             "output {} at {:.0} Hz (period {} s, trigger {}), joint states stale after {} s",
@@ -460,6 +480,21 @@ fn startup_summary(
         services.join(", "),
         settable.join(", "),
         cfg.velocity_scale
+    ));
+    let lifecycle: Vec<String> = lifecycle::NAMES
+        .iter()
+        .map(|(n, _)| topic(&format!("~/{n}")))
+        .collect();
+    lines.push(format!(
+        "lifecycle: {} ({}); services {}, events on {}",
+        if cfg.autostart { "active" } else { "inactive" },
+        if cfg.autostart {
+            "[node] autostart = true: the policy runs on the first joint state"
+        } else {
+            "[node] autostart = false: no command until `activate` (ros2 lifecycle set <node> activate)"
+        },
+        lifecycle.join(", "),
+        topic("~/transition_event")
     ));
     if let Some(dir) = record {
         lines.push(format!("recording to {}", dir.display()));

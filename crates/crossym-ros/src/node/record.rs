@@ -19,7 +19,13 @@ pub(super) enum RecordItem {
     Array(msg::Float64MultiArray, u64, u32),
     Trajectory(msg::JointTrajectory, u64, u32),
     Status(msg::Status, u64),
+    /// The policy started or stopped (a lifecycle transition as the control thread applied
+    /// it): replay applies it at the same point.
+    Lifecycle(msg::TransitionEvent, u64),
 }
+
+/// The lifecycle events' topic (rcl's name).
+pub const LIFECYCLE_TOPIC: &str = "~/transition_event";
 
 /// The sending side of the recorder; `send` never blocks (drops and counts when full).
 #[derive(Clone)]
@@ -63,7 +69,9 @@ pub(super) fn start_recorder(
             )?,
         };
         let status = w.add_topic::<msg::Status>(&name(&cfg.topics.status), Qos::reliable(10))?;
-        Ok((js, cond, cmd, status))
+        let life =
+            w.add_topic::<msg::TransitionEvent>(&name(LIFECYCLE_TOPIC), Qos::reliable(10))?;
+        Ok((js, cond, cmd, status, life))
     })()
     .map_err(|e| NodeRunError::Runtime {
         message: format!("recording: {e}"),
@@ -72,7 +80,7 @@ pub(super) fn start_recorder(
     let handle = thread::Builder::new()
         .name("crossym-bag".into())
         .spawn(move || {
-            let (js, cond, cmd, status) = topics;
+            let (js, cond, cmd, status, life) = topics;
             let mut first_err: Option<BagError> = None;
             for item in rx {
                 let r = match item {
@@ -81,6 +89,7 @@ pub(super) fn start_recorder(
                     RecordItem::Array(m, t, q) => w.write(cmd, &m, t, q),
                     RecordItem::Trajectory(m, t, q) => w.write(cmd, &m, t, q),
                     RecordItem::Status(m, t) => w.write(status, &m, t, 0),
+                    RecordItem::Lifecycle(m, t) => w.write(life, &m, t, 0),
                 };
                 if let Err(e) = r {
                     first_err.get_or_insert(e);

@@ -72,6 +72,8 @@ pub struct ScenarioTopics {
     pub joint_states: String,
     /// Mock hardware reset.
     pub reset: String,
+    /// The node's fully qualified name (its lifecycle services).
+    pub node: String,
 }
 
 impl ScenarioTopics {
@@ -82,6 +84,7 @@ impl ScenarioTopics {
             status: dds::expand_topic(&n.topics.status, &n.namespace, &n.name),
             joint_states: dds::expand_topic(&n.topics.joint_states, &n.namespace, &n.name),
             reset: reset.to_string(),
+            node: format!("{}/{}", n.namespace.trim_end_matches('/'), n.name),
         }
     }
 }
@@ -99,6 +102,9 @@ pub enum ScenarioError {
         /// What we waited for.
         what: String,
     },
+    /// The node started inactive and could not be activated.
+    #[error("activating the node: {0}")]
+    Lifecycle(#[from] crate::lifecycle_client::LifecycleCallError),
     /// Publishing failed.
     #[error("publish on {topic}: {message}")]
     Publish {
@@ -178,6 +184,7 @@ impl Endpoints {
         let mut map: Option<Vec<usize>> = None;
         let deadline = Instant::now() + discovery_timeout;
         let (mut have_js, mut have_status) = (false, false);
+        let mut last_code = 0i8;
         while !(have_js && have_status) {
             if Instant::now() > deadline {
                 return Err(ScenarioError::Timeout {
@@ -196,10 +203,23 @@ impl Endpoints {
                     map = Some(index_map(&m.name, joint_names)?);
                 }
             }
-            while let Ok(Some(_)) = status_sub.take() {
+            while let Ok(Some((s, _))) = status_sub.take() {
                 have_status = true;
+                last_code = s.code;
             }
             std::thread::sleep(Duration::from_millis(5));
+        }
+        // A node that starts inactive (`[node] autostart = false`, the RB-Y1 configs) runs
+        // the policy once someone says so: the scenario activates it, as an operator would
+        // with `ros2 lifecycle set <node> activate`.
+        if last_code == crossym_control::node::StatusCode::Inactive.value() {
+            let client = crate::lifecycle_client::LifecycleClient::new(&ctx, &topics.node)?;
+            let state = client.change_state("activate", discovery_timeout)?;
+            log::info!(
+                "scenario: {} was inactive, now {}",
+                topics.node,
+                state.label
+            );
         }
         Ok(Self {
             _node: node,
