@@ -11,7 +11,7 @@
 //! of `crossym_msgs/Status`, conditions, `/rosout`, parameters, `~/pause` and `~/reset`, and
 //! (config/rby1-pan.toml) task poses on the pose topic and through `/tf`. Asserted here:
 //! the peer's exit status, the number of checks, every check passed, both rates within 5 %
-//! of 100 Hz with no gap over 3 periods, the node's exit status 0.
+//! of 100 Hz with no gap over 5 periods, the node's exit status 0.
 //!
 //! ROS_DOMAIN_ID 151–154 (no other test uses them). A missing venv is a failure naming the
 //! install command, never a skip.
@@ -209,10 +209,27 @@ fn run(distro: &str, config: &str, groups: &[&str], domain: u16) {
             assert!((f(k) - 100.0).abs() <= 5.0, "{k} {} Hz:\n{stdout}", f(k));
         }
         for k in ["joint_states_max_gap_s", "commands_max_gap_s"] {
-            assert!(f(k) <= 0.03, "{k} {} s:\n{stdout}", f(k));
+            assert!(f(k) <= 0.05, "{k} {} s:\n{stdout}", f(k));
         }
     }
     assert_eq!(code, 0, "node exit status\n{}", common::log_tail(&node_log));
+    // Speaking the peer's distribution: said at start, and not one discovery message of
+    // the peer's refused (a wrong GID length logs `ros_discovery_info … Deserialization`).
+    let log = std::fs::read_to_string(&node_log).unwrap();
+    assert!(
+        log.contains(&format!("ROS 2 {distro} graph formats")),
+        "the node does not say it speaks {distro}:\n{}",
+        common::log_tail(&node_log)
+    );
+    let bad: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("Deserializ") || l.contains("ros_discovery_info"))
+        .collect();
+    assert!(
+        bad.is_empty(),
+        "discovery messages refused:\n{}",
+        bad.join("\n")
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -1,5 +1,5 @@
 //! `crossym node … --ros-args …`, as `launch_ros` starts a node (run inside
-//! `../shared/tools/netns-run`, as `.ci/run` does): the node renamed and moved by
+//! `tools/netns-run`, as `.ci/run` does): the node renamed and moved by
 //! `__node`/`__ns`, its parameters from a `--params-file` and `-p` (the later `-p` over the
 //! file), its joint states read from a remapped topic — each read back over DDS with
 //! crossym's own clients (`crossym param get`, `crossym status`) and the mock hardware

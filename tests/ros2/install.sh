@@ -13,7 +13,7 @@
 #     (/opt/python/cp311-cp311/include/python3.11 and its numpy include); they are
 #     rewritten, inside the venv only, to this Python's and the venv's numpy's;
 #   - a self-check (tests/ros2/selfcheck.py) runs inside a private network namespace
-#     ($NETNS_RUN, default tools/netns-run, else ../shared/tools/netns-run): rclpy initialises with
+#     ($NETNS_RUN, default tools/netns-run): rclpy initialises with
 #     rmw_fastrtps_cpp and a node receives its own message.
 # Environment: CROSSYM_ROS2_DIR (default target/ros2), NETNS_RUN, PIP_* as usual.
 set -euo pipefail
@@ -21,7 +21,6 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/../.." && pwd)"
 base="${CROSSYM_ROS2_DIR:-$root/target/ros2}"
 netns="${NETNS_RUN:-$root/tools/netns-run}"
-[ -n "${NETNS_RUN:-}" ] || [ -x "$netns" ] || netns="$root/../shared/tools/netns-run"
 export PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_ROOT_USER_ACTION=ignore
 
 distros=("$@")

@@ -26,7 +26,7 @@ Check groups (`--checks`, default all that apply to the config; each check print
   lifecycle  get_state, available states/transitions, no command while inactive, activate,
              transition events, deactivate (commands brake and stop), activate again, shutdown
   rates      the peer's /joint_states and the node's commands at 100 Hz within 5 %, no gap
-             longer than 3 periods, over a steady window
+             longer than 5 periods, over a steady window
   topics     every field of crossym_msgs/Status, a SymmetryCondition applied, a bad one refused
   rosout     the node's lines on /rosout: logger name, a startup line, a line our request caused
   params     list, describe, get every parameter, set every settable one, four kinds of refusal
@@ -72,7 +72,7 @@ ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
 GROUPS = ["graph", "lifecycle", "rates", "topics", "rosout", "params", "services", "pose"]
 PERIOD = 0.01  # s, the robot's joint states and the node's commands
 RATE_TOL = 0.05  # relative
-GAP_PERIODS = 3
+GAP_PERIODS = 5  # a gap: more than 4 messages in a row missing (one late wake-up on a loaded 2-core CI is not)
 STEADY_S = 5.0
 CODES = {v: k for k, v in vars(Status).items() if k.isupper() and isinstance(v, int)}
 INACTIVE_CODE = getattr(Status, "INACTIVE", 26)
