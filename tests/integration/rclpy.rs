@@ -13,7 +13,7 @@
 //! the peer's exit status, the number of checks, every check passed, both rates within 5 %
 //! of 100 Hz with no gap over 5 periods, the node's exit status 0.
 //!
-//! ROS_DOMAIN_ID 151–154 (no other test uses them). A missing venv is a failure naming the
+//! ROS_DOMAIN_ID 151–155 (no other test uses them). A missing venv is a failure naming the
 //! install command, never a skip.
 
 use std::path::{Path, PathBuf};
@@ -81,12 +81,10 @@ fn build_msgs(distro: &str) -> PathBuf {
 struct Node(Option<Child>);
 
 impl Node {
-    fn spawn(config: &Path, distro: &str, domain: u16, log: &Path) -> Node {
+    fn spawn(argv: &[String], distro: &str, domain: u16, log: &Path) -> Node {
         let f = std::fs::File::create(log).unwrap();
-        let child = Command::new(env!("CARGO_BIN_EXE_crossym"))
-            .arg("node")
-            .arg("--config")
-            .arg(config)
+        let child = Command::new(&argv[0])
+            .args(&argv[1..])
             .env("ROS_DOMAIN_ID", domain.to_string())
             .env("ROS_LOCALHOST_ONLY", "1")
             .env("ROS_DISTRO", distro)
@@ -129,7 +127,20 @@ impl Drop for Node {
     }
 }
 
+/// How the node is started and what the peer is told of it.
+#[derive(Default)]
+struct Start {
+    /// The node's whole command line; `None`: `crossym node --config <config>`.
+    argv: Option<Vec<String>>,
+    /// More arguments for the peer (`--namespace`, `--param`).
+    peer: Vec<String>,
+}
+
 fn run(distro: &str, config: &str, groups: &[&str], domain: u16) {
+    run_with(distro, config, groups, domain, Start::default())
+}
+
+fn run_with(distro: &str, config: &str, groups: &[&str], domain: u16, start: Start) {
     let python = venv_python(distro);
     let install = build_msgs(distro);
     let site = std::fs::read_dir(install.join("lib"))
@@ -147,13 +158,22 @@ fn run(distro: &str, config: &str, groups: &[&str], domain: u16) {
     let cfg = common::root().join("config").join(config);
     let node_log = dir.join("node.log");
     let json = dir.join("peer.json");
-    let mut node = Node::spawn(&cfg, distro, domain, &node_log);
+    let argv = start.argv.unwrap_or_else(|| {
+        vec![
+            env!("CARGO_BIN_EXE_crossym").to_string(),
+            "node".into(),
+            "--config".into(),
+            cfg.display().to_string(),
+        ]
+    });
+    let mut node = Node::spawn(&argv, distro, domain, &node_log);
     let out = Command::new(&python)
         .arg(common::root().join("tests/ros2/rclpy_peer.py"))
         .arg("--config")
         .arg(&cfg)
         .args(["--checks", &groups.join(","), "--timeout", "20", "--json"])
         .arg(&json)
+        .args(&start.peer)
         .env("PYTHONPATH", &site)
         .env("LD_LIBRARY_PATH", install.join("lib"))
         .env(
@@ -262,4 +282,74 @@ fn kilted_rby1_letters() {
 #[test]
 fn kilted_rby1_pan_task_pose() {
     run("kilted", "rby1-pan.toml", POSE, 154);
+}
+
+/// The node as `ros2 launch crossym rby1.launch.py namespace:=robot1 params_file:=P` starts
+/// it: the exact command line launch_ros builds from the installed launch file
+/// (`tests/ros2/launch_args.py` on the colcon-built package of
+/// `tests/ros2/build_package.sh`, which `.ci/run` runs before the tests), with a params file
+/// in launch's `/**: ros__parameters:` form. rclpy finds it as `/robot1/crossym`, reads the
+/// file's values back (`velocity_scale` 0.5, `safety.margin` 0.03), and drives its
+/// lifecycle and topics under the namespace.
+#[test]
+fn jazzy_launch_file_command_line() {
+    let distro = "jazzy";
+    let python = venv_python(distro);
+    let venv = python.parent().unwrap().parent().unwrap().to_path_buf();
+    let prefix = ros2_dir().join(format!("pkg-{distro}/install/crossym"));
+    assert!(
+        prefix.join("lib/crossym/crossym").exists(),
+        "no colcon-built crossym package at {}: run `bash tests/ros2/build_package.sh {distro}` \
+         (.ci/run does)",
+        prefix.display()
+    );
+    let dir = common::temp_dir("rclpy-launch");
+    let params = dir.join("robot1.params.yaml");
+    std::fs::write(
+        &params,
+        "/**:\n  ros__parameters:\n    velocity_scale: 0.5\n    safety:\n      margin: 0.03\n",
+    )
+    .unwrap();
+    let out = Command::new(&python)
+        .arg(common::root().join("tests/ros2/launch_args.py"))
+        .arg("namespace:=robot1")
+        .arg(format!("params_file:={}", params.display()))
+        .env(
+            "AMENT_PREFIX_PATH",
+            format!("{}:{}", prefix.display(), venv.display()),
+        )
+        .env_remove("_ROS_WHEELS_BOOTSTRAP_COMPLETE")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "launch_args.py: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let argv: Vec<String> = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        argv.windows(2).any(|w| w == ["-r", "__ns:=/robot1"])
+            && argv.windows(2).any(|w| w[0] == "--params-file"),
+        "{argv:?}"
+    );
+    run_with(
+        distro,
+        "rby1-letters.toml",
+        &["graph", "lifecycle", "topics", "params"],
+        155,
+        Start {
+            argv: Some(argv),
+            peer: [
+                "--namespace",
+                "/robot1",
+                "--param",
+                "velocity_scale=0.5",
+                "--param",
+                "safety.margin=0.03",
+            ]
+            .map(String::from)
+            .to_vec(),
+        },
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -145,6 +145,7 @@ class Robot:
         self.has_scaling = "scaling" in kinds
         safety = node.get("safety", {})
         self.margin = float(safety.get("margin", 0.01))
+        self.velocity_scale = float(node.get("velocity_scale", 1.0))
         self.tracking_tolerance = float(safety.get("tracking_tolerance", 0.002))
         self.stale_timeout = float(node.get("stale_timeout_s", 0.1))
         self.period = float(node.get("period_s", 0.01))
@@ -152,6 +153,25 @@ class Robot:
         self.default_condition = (float(dc.get("theta", 0.0)), float(dc.get("scale", 1.0)),
                                   int(dc.get("reflection", 1)))
         self.policy = node.get("policy")
+
+    def retarget(self, namespace: str, params: dict) -> None:
+        """The node as started with `--ros-args -r __ns:=NAMESPACE` and parameters given at
+        start (a launch file's params file): its names and the values expected back."""
+        raw = self.node.get("topics", {})
+        self.ns = namespace if namespace.startswith("/") else "/" + namespace
+        self.fqn = self.ns.rstrip("/") + "/" + self.name
+        for k, d in (("joint_states", "/joint_states"), ("symmetry_condition", "~/symmetry_condition"),
+                     ("command", "/forward_velocity_controller/commands"), ("status", "~/status")):
+            self.topics[k] = self.expand(raw.get(k, d))
+        if self.task_pose:
+            self.topics["task_pose"] = self.expand(self.task_pose.get("topic", "~/task_pose"))
+        for name, value in params.items():
+            if name == "velocity_scale":
+                self.velocity_scale = float(value)
+            elif name == "safety.margin":
+                self.margin = float(value)
+            else:
+                raise SystemExit(f"rclpy_peer: --param {name}: only velocity_scale and safety.margin")
 
     def expand(self, topic: str) -> str:
         if topic.startswith("~/"):
@@ -624,7 +644,7 @@ class Scenario:
                 ("tracking_error in [0, tracking_tolerance]", 0.0 <= b.tracking_error <= r.tracking_tolerance,
                  f"{b.tracking_error:.3g}"),
                 ("paused false", b.paused is False, str(b.paused)),
-                ("velocity_scale 1", b.velocity_scale == 1.0, str(b.velocity_scale)),
+                (f"velocity_scale {r.velocity_scale:g}", b.velocity_scale == r.velocity_scale, str(b.velocity_scale)),
                 ("singularity_condition finite >= 1", math.isfinite(b.singularity_condition) and b.singularity_condition >= 1.0,
                  f"{b.singularity_condition:.3g}"),
                 ("singularity_factor in [0, 1]", 0.0 <= b.singularity_factor <= 1.0, f"{b.singularity_factor:.3g}"),
@@ -715,7 +735,7 @@ class Scenario:
         else:
             rep.check("params", "describe_read_only", False, note)
         got = self.get(allp)
-        want = {"velocity_scale": 1.0, "default_condition": [float(x) for x in r.default_condition],
+        want = {"velocity_scale": r.velocity_scale, "default_condition": [float(x) for x in r.default_condition],
                 "accept_untrained_conditions": bool(r.node.get("accept_untrained_conditions", False)),
                 "stale_timeout_s": r.stale_timeout, "safety.margin": r.margin,
                 "log_level": r.node.get("log_level", "info"), "period_s": r.period,
@@ -729,7 +749,7 @@ class Scenario:
         rep.check("params", "get_all", got and not diff,
                   f"{len(got)} values as the config says" if got and not diff else f"differ (name, got, want): {diff}")
         # set every settable one, read it back, set it back
-        new = {"velocity_scale": 0.5, "default_condition": [0.2617993877991494, 1.0, 1.0],
+        new = {"velocity_scale": 0.25 if r.velocity_scale == 0.5 else 0.5, "default_condition": [0.2617993877991494, 1.0, 1.0],
                "accept_untrained_conditions": True, "stale_timeout_s": r.stale_timeout * 0.8,
                "safety.margin": r.margin + 0.01, "log_level": "debug"}
         for name in settable:
@@ -739,7 +759,7 @@ class Scenario:
             ok = res is not None and res.successful and back == new[name]
             if name == "velocity_scale" and ok:
                 t = now_s()
-                st = p.wait_status(lambda s: s.velocity_scale == 0.5, t, 3.0)
+                st = p.wait_status(lambda s: s.velocity_scale == new["velocity_scale"], t, 3.0)
                 ok = st is not None
                 extra = f"; status.velocity_scale {st.velocity_scale if st else p.latest_status().velocity_scale}"
             res2, note2 = self.set(name, want[name])
@@ -998,8 +1018,14 @@ def main(argv=None) -> int:
     ap.add_argument("--checks", default="all", help="comma-separated groups of " + ",".join(GROUPS) + " (default all)")
     ap.add_argument("--timeout", type=float, default=20.0, help="s: wait for the node, and per waiting step")
     ap.add_argument("--json", metavar="OUT")
+    ap.add_argument("--namespace", help="the node's namespace when started with -r __ns:=… (default: the config's)")
+    ap.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                    help="a parameter value the node was started with (velocity_scale, safety.margin)")
     args = ap.parse_args(argv)
     robot = Robot(args.config)
+    if args.namespace is not None or args.param:
+        robot.retarget(args.namespace if args.namespace is not None else robot.ns,
+                       dict(kv.split("=", 1) for kv in args.param))
     groups = [g for g in GROUPS if g != "pose" or robot.task_pose] if args.checks == "all" else args.checks.split(",")
     unknown = [g for g in groups if g not in GROUPS]
     if unknown:
