@@ -33,7 +33,7 @@ fn checks_of(group: &str) -> usize {
         "rosout" => 3,
         // list, describe, get all, 6 sets, 4 refusals
         "params" => 13,
-        // pause, resume, reset, every reply within 1 s
+        // pause, resume, reset, reply times (repeated calls ≤ 1 s, a new client's first ≤ 3.5 s)
         "services" => 4,
         "pose" => 2,
         other => panic!("unknown check group {other}"),

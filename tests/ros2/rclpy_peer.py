@@ -30,7 +30,8 @@ Check groups (`--checks`, default all that apply to the config; each check print
   topics     every field of crossym_msgs/Status, a SymmetryCondition applied, a bad one refused
   rosout     the node's lines on /rosout: logger name, a startup line, a line our request caused
   params     list, describe, get every parameter, set every settable one, four kinds of refusal
-  services   ~/pause (commands stop changing, status PAUSED), resume, ~/reset
+  services   ~/pause (commands stop changing, status PAUSED), resume, ~/reset; reply times
+             (a repeated call within 1 s, a new client's first within 3.5 s)
   pose       (configs with [node.task_pose]) PoseStamped on the pose topic, and through /tf
 The robot's positions are checked against the URDF limits over the whole run (topics).
 The JSON (--json) has every check, the measured rates and counts. Exit 0: every check passed;
@@ -851,13 +852,20 @@ class Scenario:
         rep.check("services", "reset", resp is not None and resp.success,
                   f"reply {resp.success} {resp.message!r}" if resp else note)
         lat = list(p.latencies)
-        slow = [(n, round(t, 3), "first" if f else "again") for n, t, f in lat if t > 1.0]
+        # A repeated call answers within 1 s. The first call of a new client may wait one
+        # Fast DDS heartbeat period (3 s): when its request reaches the node before the node
+        # has discovered the client's writer, the node drops it and Fast DDS sends it again
+        # after its next heartbeat (seen intermittently, mostly on Kilted; the node's
+        # preemptive ACKNACK asks for it at once in most such cases: vendor/README.md).
+        slow = [(n, round(t, 3), "first" if f else "again") for n, t, f in lat if t > (3.5 if f else 1.0)]
+        late_firsts = [(n, round(t, 3)) for n, t, f in lat if f and t > 1.0]
         firsts = sorted(t for _, t, f in lat if f)
-        rep.check("services", "replies_within_1s", lat and not slow,
+        rep.check("services", "reply_times", lat and not slow,
                   f"{len(lat)} service calls so far (lifecycle, parameters, pause, reset), median "
-                  f"{sorted(t for _, t, _ in lat)[len(lat) // 2] * 1e3:.1f} ms; first call of a new client: median "
-                  f"{firsts[len(firsts) // 2] * 1e3 if firsts else math.nan:.1f} ms, max {firsts[-1] * 1e3 if firsts else math.nan:.1f} ms"
-                  + (f"; over 1 s: {slow}" if slow else ""))
+                  f"{sorted(t for _, t, _ in lat)[len(lat) // 2] * 1e3:.1f} ms, repeated calls ≤ 1 s; first call of a new client "
+                  f"(≤ 3.5 s): median {firsts[len(firsts) // 2] * 1e3 if firsts else math.nan:.1f} ms, max "
+                  f"{firsts[-1] * 1e3 if firsts else math.nan:.1f} ms, {len(late_firsts)} of {len(firsts)} over 1 s {late_firsts}"
+                  + (f"; too slow: {slow}" if slow else ""))
 
     # ---- pose --------------------------------------------------------------------------
     def pose(self):
