@@ -414,6 +414,8 @@ fn physics_rby1_keeps_a_narrowed_range_under_faults() {
             &hw_log,
         );
         let mut node = spawn(&["node", "--config", cfg], &node_log);
+        // The RB-Y1 configs start the node inactive: say go, as an operator would.
+        super::common::lifecycle_set(Path::new(cfg), 0, "activate");
         // Events, with generous deadlines: the node commands, sees the fault, sees valid
         // joint states again; then 3 s more of the letter (the bound is reached ≈ 2 s after
         // the fault window).

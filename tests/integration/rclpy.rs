@@ -13,6 +13,7 @@
 //! the peer's exit status, the number of checks, every check passed, both rates within 5 %
 //! of 100 Hz with no gap over 5 periods, the node's exit status 0.
 //!
+//! `CROSSYM_BIN=target/release/crossym` runs the checks against a release build.
 //! ROS_DOMAIN_ID 151–155 (no other test uses them). A missing venv is a failure naming the
 //! install command, never a skip.
 
@@ -158,9 +159,12 @@ fn run_with(distro: &str, config: &str, groups: &[&str], domain: u16, start: Sta
     let cfg = common::root().join("config").join(config);
     let node_log = dir.join("node.log");
     let json = dir.join("peer.json");
+    // CROSSYM_BIN: another build of the same binary (e.g. target/release/crossym).
+    let bin =
+        std::env::var("CROSSYM_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_crossym").to_string());
     let argv = start.argv.unwrap_or_else(|| {
         vec![
-            env!("CARGO_BIN_EXE_crossym").to_string(),
+            bin,
             "node".into(),
             "--config".into(),
             cfg.display().to_string(),
