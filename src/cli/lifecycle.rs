@@ -31,12 +31,7 @@ pub fn run(a: &LifecycleArgs) -> anyhow::Result<ExitCode> {
     );
     let n = a.node.node_config()?;
     let target = dds::node_name(&n.namespace, &n.name)?.fully_qualified_name();
-    let settings = match &n.ros_distro {
-        Some(d) => {
-            DdsSettings::from_env()?.with_distro(dds::parse_distro(d).map_err(anyhow::Error::msg)?)
-        }
-        None => DdsSettings::from_env()?,
-    };
+    let settings = DdsSettings::from_env()?.with_config_distro(n.ros_distro.as_deref())?;
     let ctx = settings.context()?;
     let client = LifecycleClient::new(&ctx, &target)?;
     let timeout = Duration::from_secs_f64(a.timeout_s);

@@ -168,6 +168,21 @@ impl DdsSettings {
         Self { distro, ..self }
     }
 
+    /// These settings with a config's `[node] ros_distro`, which wins over `ROS_DISTRO`
+    /// when given; a name crossym does not speak is refused.
+    pub fn with_config_distro(self, name: Option<&str>) -> Result<Self, DdsError> {
+        match name {
+            None => Ok(self),
+            Some(d) => parse_distro(d)
+                .map(|distro| self.with_distro(distro))
+                .map_err(|_| DdsError::Env {
+                    var: "[node] ros_distro",
+                    value: d.to_string(),
+                    message: "crossym speaks humble, jazzy and kilted",
+                }),
+        }
+    }
+
     /// Creates the ros2-client context (one DDS participant).
     pub fn context(&self) -> Result<Context, DdsError> {
         self.context_with_hook(None)

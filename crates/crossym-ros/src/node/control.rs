@@ -523,8 +523,9 @@ impl ControlThread {
             if let (OperatorRequest::Activate(active), Ok(()), Some(r)) =
                 (request, &result, &self.links.rec)
             {
-                let event = super::lifecycle::applied_event(active, source, dds::wall_time_ns());
-                r.send(RecordItem::Lifecycle(event, dds::wall_time_ns()));
+                let now_ns = dds::wall_time_ns();
+                let event = super::lifecycle::applied_event(active, source, now_ns);
+                r.send(RecordItem::Lifecycle(event, now_ns));
             }
             self.tell(ToIo::Operator {
                 request,

@@ -77,15 +77,8 @@ pub fn run(
 ) -> Result<TickStats, NodeRunError> {
     let cfg = core.config().clone();
     lifecycle::apply_autostart(&mut core);
-    let settings = match &cfg.ros_distro {
-        // Checked against SUPPORTED_ROS_DISTROS when the config was read.
-        Some(d) => settings.with_distro(dds::parse_distro(d).map_err(|_| DdsError::Env {
-            var: "[node] ros_distro",
-            value: d.clone(),
-            message: "crossym speaks humble, jazzy and kilted",
-        })?),
-        None => settings,
-    };
+    // Checked against SUPPORTED_ROS_DISTROS when the config was read.
+    let settings = settings.with_config_distro(cfg.ros_distro.as_deref())?;
     let recorder = match record {
         Some(dir) => Some(start_recorder(dir, &cfg)?),
         None => None,
