@@ -22,7 +22,10 @@ from pathlib import Path
 FLOORS = {
     "crossym-math": 1,
     "crossym-io": 1,
-    "crossym-learn": 2,
+    "crossym-policy": 2,
+    # Siblings: the training stack and the real-time control floor never depend on each
+    # other (the node links policy inference, not training).
+    "crossym-learn": 3,
     "crossym-control": 3,
     "crossym-ros": 4,
     "crossym": 5,

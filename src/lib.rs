@@ -63,8 +63,9 @@
 pub use crossym_control as control;
 pub use crossym_control::safety;
 pub use crossym_io::{bag, lerobot, msg, msgdef};
-pub use crossym_learn::{data, eval, policy};
+pub use crossym_learn::{data, eval, train};
 pub use crossym_math::{kinematics, symmetry};
+pub use crossym_policy as policy;
 pub use crossym_ros as ros;
 pub use crossym_ros::sim;
 

@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use crossym_control::{NodeConfig, NodeCore, NodeError, OutputMode, Severity, Trigger};
-use crossym_learn::policy::{Policy, PolicyError};
 use crossym_math::symmetry::compose::Condition;
+use crossym_policy::{Policy, PolicyError};
 use crossym_ros::sim::stress::Geometry;
 
 use crate::config::{Config, ConfigError};

@@ -715,7 +715,7 @@ fn canonicalised_policy_and_its_node_tick_are_allocation_free() {
 #[test]
 fn task_head_and_its_node_tick_are_allocation_free() {
     use crossym::config::Config;
-    use crossym::data::augmentation::SubGroup;
+    use crossym::policy::SubGroup;
     use crossym::policy::{task_coordinate_names, AnyPolicy, Policy};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut configs = vec![("planar", "config/letters.toml")];

@@ -24,7 +24,8 @@ pub struct AugmentArgs {
 
 /// `crossym augment`.
 pub fn run(a: &AugmentArgs) -> anyhow::Result<ExitCode> {
-    use crossym::data::augmentation::{DropReason, SubGroup};
+    use crossym::data::augmentation::DropReason;
+    use crossym::policy::SubGroup;
     let cfg = Config::from_file(&a.config)?;
     let robot = cfg.load_robot()?;
     let p = pipeline(
@@ -118,8 +119,8 @@ fn plot(
     p: &crossym::pipeline::Pipeline,
     png: &Path,
 ) -> anyhow::Result<()> {
-    use crossym::data::augmentation::SubGroup;
     use crossym::eval::plot::{write_paths_grid, PathFigure, PathPanel, XY_VIEW};
+    use crossym::policy::SubGroup;
     let first = p.demos.train.first().copied();
     let original = first
         .and_then(|d| p.demos.demos.iter().find(|t| t.demo == d))

@@ -12,10 +12,10 @@ use crossym::config::Config;
 use crossym::data::demonstrations::{
     load_each, Demonstrations, DemonstrationsConfig, Pick, SourceDemos, SourceDetail,
 };
-use crossym::data::letters::JointTrajectory;
 use crossym::eval::plot::{
     write_curves_png, write_paths_grid, CurveFigure, PathFigure, PathPanel, XY_VIEW,
 };
+use crossym::policy::JointTrajectory;
 
 /// Arguments of `crossym demos`.
 #[derive(Debug, Args)]

@@ -12,9 +12,10 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 use crossym::config::Config;
-use crossym::data::augmentation::{letter_augmenter, GroupGrid};
-use crossym::data::letters::JointTrajectory;
+use crossym::data::augmentation::letter_augmenter;
 use crossym::eval::plot::{curve_colour, write_curves_png, CurveFigure};
+use crossym::policy::GroupGrid;
+use crossym::policy::JointTrajectory;
 use crossym::symmetry::compose::Condition;
 
 /// Scores a policy on a set of (demonstration, condition) pairs.
@@ -121,10 +122,10 @@ pub fn run(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             kin,
             &built,
             &tc,
-            crossym::data::augmentation::SubGroup::R,
+            crossym::policy::SubGroup::R,
         )?;
         let (policy, report) =
-            crossym::policy::train_with_features(&data, &tc, meta, features, |_, _| {})?;
+            crossym::train::train_with_features(&data, &tc, meta, features, |_, _| {})?;
         let rows = per_angle(&|set| crossym::eval::evaluate(&policy, kin, set, &cfg.eval));
         let c = curve_colour(si, a.steps.len());
         out.add_step(step, (c.0, c.1, c.2), data.len(), &report, &rows);
@@ -183,7 +184,7 @@ impl Tables {
         step: f64,
         colour: (u8, u8, u8),
         trajectories: usize,
-        report: &crossym::policy::TrainReport,
+        report: &crossym::train::TrainReport,
         rows: &[(f64, f64, usize, usize)],
     ) {
         let mut curve = Vec::new();

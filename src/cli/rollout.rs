@@ -9,12 +9,12 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use crossym::config::Config;
-use crossym::data::letters::JointTrajectory;
 use crossym::eval::plot::{condition_label, write_paths_png, PathFigure, PathPanel, XY_VIEW};
 use crossym::eval::{nominal_at, rollout, samples_spanning, score_path_timed, RolloutStatus};
 use crossym::kinematics::Kinematics;
 use crossym::pipeline::figures::file_name;
 use crossym::pipeline::nominal_trajectories;
+use crossym::policy::JointTrajectory;
 use crossym::setup::{node_config, parse_condition, NodeOverrides};
 use crossym::symmetry::compose::Condition;
 

@@ -8,8 +8,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::ValueEnum;
 use crossym::config::Config;
-use crossym::data::augmentation::SubGroup;
 use crossym::pipeline::Splits;
+use crossym::policy::SubGroup;
 
 use super::common::{pipeline, Trimmed};
 
@@ -19,7 +19,11 @@ pub struct TrainArgs {
     /// Config file (TOML) with [demonstrations], [augmentation], [train].
     #[arg(long, short)]
     pub config: PathBuf,
-    /// Sub-group used for augmentation: identity, R, RT or MRT (default MRT).
+    /// Sub-group of the config's composition to train for: identity, R, RT or MRT (the
+    /// whole composition, whatever the config composes: M ⋊ R for a config without
+    /// scaling; default MRT). With --task-head, a comma list (e.g. identity,R,RT,MRT)
+    /// writes one file per sub-group from one training; --out then contains `{group}`,
+    /// replaced by original, r, rt or mrt.
     #[arg(
         long,
         value_delimiter = ',',

@@ -6,10 +6,10 @@ use std::path::PathBuf;
 
 use crate::config::{Config, LoadedRobot};
 use crate::control::NodeConfig;
-use crate::data::letters::JointTrajectory;
 use crate::eval::{score, EvalConfig};
 use crate::kinematics::Kinematics;
 use crate::pipeline::{load_any_policy, nominal_trajectories, pick_demo};
+use crate::policy::JointTrajectory;
 use crate::policy::{AnyPolicy, ConditionDomain};
 use crate::setup::{node_config, parse_condition};
 use crate::sim::physics::Plant;

@@ -15,7 +15,7 @@ pub fn figure_conditions(
     demo: Option<usize>,
     max: usize,
 ) -> (Vec<&crate::data::augmentation::Augmented>, String) {
-    use crate::data::augmentation::SubGroup;
+    use crate::policy::SubGroup;
     let g = SubGroup::ALL[gi];
     let all: Vec<_> = set
         .subset(g)

@@ -14,16 +14,16 @@
 use std::path::{Path, PathBuf};
 
 use crate::config::Config;
-use crate::data::augmentation::{letter_augmenter, AugmentedSet, GroupGrid, SubGroup};
+use crate::data::augmentation::{letter_augmenter, AugmentedSet};
 use crate::data::demonstrations::Demonstrations;
-use crate::data::letters::JointTrajectory;
 use crate::kinematics::Kinematics;
-use crate::policy::{
-    AnyPolicy, CanonicalMap, Policy, PolicyMeta, TaskFeatures, TrainConfig, TrainReport,
-};
+use crate::policy::JointTrajectory;
+use crate::policy::{AnyPolicy, CanonicalMap, Policy, PolicyMeta, TaskFeatures, TrainConfig};
+use crate::policy::{GroupGrid, SubGroup};
 use crate::symmetry::check::BuiltSymmetry;
 use crate::symmetry::compose::Condition;
 use crate::symmetry::transfer::composed::{ComposedSpec, LiftIntegrator};
+use crate::train::TrainReport;
 
 pub mod figures;
 pub mod fit;
@@ -414,7 +414,7 @@ pub fn train(
     let (built, _) = crate::symmetry::check::build(kin, &cfg.symmetries)?;
     let features = task_features_for(cfg, kin, &built, tc, group)?;
     let (policy, report) =
-        crate::policy::train_with_features(&data, tc, meta, features, on_iteration)?;
+        crate::train::train_with_features(&data, tc, meta, features, on_iteration)?;
     Ok(Trained {
         policy,
         report,
@@ -491,7 +491,7 @@ pub fn train_task_head(
         task_features: false,
         ..tc.clone()
     };
-    let (head, report) = crate::policy::train(&data, &tc, meta, on_iteration)?;
+    let (head, report) = crate::train::train(&data, &tc, meta, on_iteration)?;
     Ok(Trained {
         policy: task_head_for(cfg, kin, &head, group)?,
         report,

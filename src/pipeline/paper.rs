@@ -11,13 +11,14 @@ use rayon::prelude::*;
 
 use super::{invalid, Pipeline, PipelineError, Splits};
 use crate::config::Config;
-use crate::data::augmentation::{Augmented, SubGroup};
+use crate::data::augmentation::Augmented;
 use crate::eval::paper::{
     pooled_cell, pooled_horizon, resample, resampled_cell, resampled_rmse, trajectory_mse, Columns,
     PaperCell, PaperProtocol, TrajectoryError,
 };
 use crate::eval::plot::XY_VIEW;
 use crate::kinematics::Kinematics;
+use crate::policy::SubGroup;
 
 /// The files [`table2_paper`] wrote.
 #[derive(Debug, Clone)]

@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 
 use super::{create_parent, Pipeline, PipelineError};
 use crate::config::Config;
-use crate::data::augmentation::SubGroup;
 use crate::eval::plot::{write_paths_grid, PathFigure, PathPanel, XY_VIEW};
 use crate::kinematics::Kinematics;
+use crate::policy::SubGroup;
 use crate::symmetry::compose::Condition;
 
 /// The files [`table2`] wrote.

@@ -3,8 +3,9 @@
 //! augmented joint-space trajectory draws the transformed letter, `f(q') = ρ_X R(θ) λ x`.
 
 use crossym::config::Config;
-use crossym::data::augmentation::{letter_augmenter, GroupGrid, SubGroup};
-use crossym::data::letters::JointTrajectory;
+use crossym::data::augmentation::letter_augmenter;
+use crossym::policy::JointTrajectory;
+use crossym::policy::{GroupGrid, SubGroup};
 use crossym::symmetry::check::build;
 use crossym::symmetry::finite::SignedPermutation;
 use crossym::symmetry::lie::{AffineAction, LieGroupSpec};

@@ -3,13 +3,12 @@
 //! with inference, and a policy with them trains, saves, loads, checks its robot and
 //! refuses broken files.
 
-use crossym::data::letters::JointTrajectory;
 use crossym::pipeline::nominal_trajectories;
-use crossym::policy::{
-    train_with_features, LrSchedule, Policy, PolicyMeta, TaskFeatures, TrainConfig,
-};
+use crossym::policy::JointTrajectory;
+use crossym::policy::{LrSchedule, Policy, PolicyMeta, TaskFeatures, TrainConfig};
 use crossym::symmetry::check::build;
 use crossym::symmetry::compose::Condition;
+use crossym::train::train_with_features;
 
 use crate::common;
 
@@ -148,7 +147,7 @@ fn task_feature_policy_trains_saves_loads_and_checks_its_robot() {
     t.check_kinematics(kin).unwrap();
 
     // Inference equals candle on the encoded input.
-    let candle = crossym::policy::CandleMlp::from_inference(p.mlp()).unwrap();
+    let candle = crossym::train::CandleMlp::from_inference(p.mlp()).unwrap();
     let mut ws = p.workspace();
     let mut tw = t.workspace();
     let (mut v, mut feat) = (vec![0.0; n], vec![0.0; 4]);
@@ -275,7 +274,7 @@ fn canonical_features_undo_the_rby1_letter_and_pan_groups() {
 
 #[test]
 fn features_of_a_sub_group_policy_undo_only_that_sub_group() {
-    use crossym::data::augmentation::SubGroup;
+    use crossym::policy::SubGroup;
     let (cfg, robot, demos, full) = letter_features();
     let demo = &demos.demos[0];
     let m = full.dim();

@@ -2,9 +2,9 @@
 //! wrong condition does not, and a runaway policy is counted as diverged; `crossym
 //! rollout` writes what the library's rollout computes and scores it as eval does.
 
-use crossym::data::letters::JointTrajectory;
 use crossym::eval::{evaluate, rollout, score, EvalConfig, RolloutStatus};
 use crossym::pipeline::nominal_trajectories;
+use crossym::policy::JointTrajectory;
 use crossym::policy::{Activation, MlpInference, MlpSpec, Normalizer, Policy, PolicyMeta};
 use crossym::symmetry::compose::Condition;
 use rand::Rng;
@@ -428,7 +428,7 @@ fn rollout_at_another_step_is_scored_by_time() {
 /// population std of those MSEs.
 #[test]
 fn paper_protocol_table_pools_train_and_test_and_matches_a_recomputation() {
-    use crossym::data::augmentation::GroupGrid;
+    use crossym::policy::GroupGrid;
     let (mut cfg, robot, _) = common::task("letters.toml");
     let kin = &robot.kinematics;
     let grid = |c: Vec<[f64; 3]>| GroupGrid {

@@ -5,12 +5,12 @@ use std::f64::consts::FRAC_PI_2;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use crossym::data::letters::JointTrajectory;
+use crossym::policy::JointTrajectory;
 use crossym::policy::{
-    sidecar_path, train, CandleMlp, LrSchedule, MlpSpec, Policy, PolicyError, PolicyMeta,
-    TrainConfig, TrainReport,
+    sidecar_path, LrSchedule, MlpSpec, Policy, PolicyError, PolicyMeta, TrainConfig,
 };
 use crossym::symmetry::compose::Condition;
+use crossym::train::{train, CandleMlp, TrainReport};
 use rand::Rng;
 
 use crate::common::rng;

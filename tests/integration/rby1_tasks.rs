@@ -3,7 +3,8 @@
 //! without scaling. Skipped (with a message) when `robots/rby1a/` is absent.
 
 use crossym::config::Config;
-use crossym::data::augmentation::{letter_augmenter, GroupGrid, SubGroup};
+use crossym::data::augmentation::letter_augmenter;
+use crossym::policy::{GroupGrid, SubGroup};
 use crossym::symmetry::compose::Condition;
 
 use crate::common;

@@ -25,7 +25,7 @@
 //! use crossym_control::safety::SafetySettings;
 //! use crossym_control::{NodeConfig, NodeCore, StatusCode};
 //! use crossym_io::msg::{JointState, SymmetryCondition};
-//! use crossym_learn::policy::Policy;
+//! use crossym_policy::Policy;
 //! use crossym_math::kinematics::{ChainSpec, Kinematics, KinematicsSettings, RobotModel, TaskSpace};
 //!
 //! const URDF: &str = r#"<robot name="arm2">

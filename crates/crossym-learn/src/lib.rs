@@ -3,22 +3,23 @@
 //! Symmetry-conditioned policies learned by imitation (paper Sec. VI-A):
 //! - [`data`]: demonstrations from every source (LASA letters, reaches, rosbag2 recordings,
 //!   CSV), their cleaning, and the augmentation by the lifted composed group (eq. 23);
-//! - [`policy`]: the policy `π(q, s) → q̇` (joint-space MLP, canonicalised, task-space head),
-//!   allocation-free inference, training with candle, safetensors + JSON persistence;
+//! - [`train`](mod@train): training the policies of `crossym-policy` (joint-space MLP,
+//!   canonicalised, task-space head) with candle;
 //! - [`eval`]: rollouts and Table II scores in both protocols, and the figures.
 //!
-//! Built on [`crossym_math`] (kinematics, symmetries) and [`crossym_io`] (bags); knows
-//! nothing of the node, DDS or config files.
+//! Built on [`crossym_policy`] (the policies and their allocation-free inference, which the
+//! node links without this crate), [`crossym_math`] (kinematics, symmetries) and
+//! [`crossym_io`] (bags); knows nothing of the node, DDS or config files.
 //!
 //! ## Example: a policy `π(q, s)` over a grid of conditions
 //!
 //! The paper's training grid of `G_MRT` without scaling: θ every 30° in [−180°, 180°] and
 //! both reflections, 26 conditions `s = (θ, λ, σ)`; a tiny untrained policy (random weights
-//! in the shape of a trained one, as [`policy::train()`] returns) evaluated at each.
+//! in the shape of a trained one, as [`train::train()`] returns) evaluated at each.
 //!
 //! ```
-//! use crossym_learn::data::augmentation::GroupGrid;
-//! use crossym_learn::policy::Policy;
+//! use crossym_policy::GroupGrid;
+//! use crossym_policy::Policy;
 //!
 //! let grid = GroupGrid { rotation_step_deg: Some(30.0), reflection: true, ..GroupGrid::identity() };
 //! grid.validate()?;
@@ -41,4 +42,4 @@
 
 pub mod data;
 pub mod eval;
-pub mod policy;
+pub mod train;

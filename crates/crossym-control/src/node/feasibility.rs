@@ -1,10 +1,10 @@
 //! Whether a condition is feasible for a canonicalised policy from the current joint state:
 //! the lifted flows and the canonical configuration's limits (fixed size, no allocation).
 
-use crossym_learn::policy::{AnyPolicy, EquivariantPolicy, EquivariantWorkspace};
 use crossym_math::kinematics::JointLimits;
 use crossym_math::symmetry::compose::Condition;
 use crossym_math::symmetry::transfer::composed::ComposedError;
+use crossym_policy::{AnyPolicy, EquivariantPolicy, EquivariantWorkspace};
 
 /// Why a condition is infeasible for a canonicalised policy from the current joint state
 /// (fixed size, no allocation).

@@ -2,8 +2,8 @@
 //! against the robot, and the node's default condition against the conditions it was
 //! trained on. Checked once, when a [`NodeCore`](super::NodeCore) is built.
 
-use crossym_learn::policy::{AnyPolicy, ConditionDomain};
 use crossym_math::kinematics::Kinematics;
+use crossym_policy::{AnyPolicy, ConditionDomain};
 
 use super::config::NodeConfig;
 use super::error::NodeError;

@@ -2,8 +2,8 @@
 //! [`Inputs`] the tick reads, and the sequence numbers bag replay matches.
 
 use crossym_io::msg;
-use crossym_learn::policy::ConditionDomain;
 use crossym_math::symmetry::compose::Condition;
+use crossym_policy::ConditionDomain;
 
 use super::config::NodeConfig;
 use super::feasibility::ConditionFeasibility;

@@ -6,7 +6,7 @@
 //! position is not finite, or the header stamp is stale; `~/symmetry_condition` is
 //! rejected unless `θ` is finite, `λ > 0` is finite and `σ = ±1`, and — unless
 //! `accept_untrained_conditions` — unless it lies in the box of conditions the policy was
-//! trained on ([`ConditionDomain`](crossym_learn::policy::ConditionDomain), from its sidecar). A rejected message
+//! trained on ([`ConditionDomain`](crossym_policy::ConditionDomain), from its sidecar). A rejected message
 //! leaves the node's state untouched and is recorded (fixed-size [`Rejection`] + counts).
 //!
 //! Each tick at period `Δt`: with no joint state, or one older than the stale timeout,

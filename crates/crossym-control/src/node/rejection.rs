@@ -1,6 +1,6 @@
 //! Why an input message was rejected (fixed size; the node's state is left untouched).
 
-use crossym_learn::policy::DomainViolation;
+use crossym_policy::DomainViolation;
 
 use super::feasibility::Infeasibility;
 
@@ -41,7 +41,7 @@ pub enum Rejection {
         /// The value received.
         value: i8,
     },
-    /// The condition is valid but outside the policy's trained [`ConditionDomain`](crossym_learn::policy::ConditionDomain).
+    /// The condition is valid but outside the policy's trained [`ConditionDomain`](crossym_policy::ConditionDomain).
     UntrainedCondition {
         /// The part that lies outside.
         part: DomainViolation,

@@ -5,9 +5,9 @@
 use std::path::PathBuf;
 
 use super::clean::{clean, CleanConfig, CleanReport};
-use super::letters::JointTrajectory;
 use super::recording::JointRecording;
 use crossym_math::kinematics::Kinematics;
+use crossym_policy::JointTrajectory;
 
 /// What reading and cleaning did to one recording.
 #[derive(Debug, Clone)]

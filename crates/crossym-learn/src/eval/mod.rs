@@ -29,13 +29,13 @@ pub mod plot;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::data::letters::JointTrajectory;
-use crate::policy::Policy;
 use crossym_math::kinematics::Kinematics;
 use crossym_math::symmetry::compose::Condition;
+use crossym_policy::JointTrajectory;
+use crossym_policy::Policy;
 
 /// A symmetry-conditioned policy `π(q, s) → q̇` that evaluation can roll out: a plain
-/// [`Policy`] or a canonicalised [`crate::policy::EquivariantPolicy`].
+/// [`Policy`] or a canonicalised [`crossym_policy::EquivariantPolicy`].
 pub trait ConditionedPolicy: Sync {
     /// Caller-owned scratch.
     type Workspace;
@@ -53,7 +53,7 @@ pub trait ConditionedPolicy: Sync {
 }
 
 impl ConditionedPolicy for Policy {
-    type Workspace = crate::policy::PolicyWorkspace;
+    type Workspace = crossym_policy::PolicyWorkspace;
     fn rollout_workspace(&self) -> Self::Workspace {
         self.workspace()
     }
@@ -69,8 +69,8 @@ impl ConditionedPolicy for Policy {
     }
 }
 
-impl ConditionedPolicy for crate::policy::EquivariantPolicy {
-    type Workspace = crate::policy::EquivariantWorkspace;
+impl ConditionedPolicy for crossym_policy::EquivariantPolicy {
+    type Workspace = crossym_policy::EquivariantWorkspace;
     fn rollout_workspace(&self) -> Self::Workspace {
         self.workspace()
     }
@@ -85,7 +85,7 @@ impl ConditionedPolicy for crate::policy::EquivariantPolicy {
     }
 }
 
-pub use crate::policy::{AnyPolicy, AnyWorkspace};
+pub use crossym_policy::{AnyPolicy, AnyWorkspace};
 
 impl ConditionedPolicy for AnyPolicy {
     type Workspace = AnyWorkspace;
@@ -185,7 +185,7 @@ pub fn score_path(traj: &JointTrajectory, executed: &[f64], cfg: &EvalConfig) ->
 /// the start its first sample, past its end its last one (the goal).
 ///
 /// ```
-/// # use crossym_learn::data::letters::JointTrajectory;
+/// # use crossym_policy::JointTrajectory;
 /// let traj = JointTrajectory { demo: 1, n: 1, m: 1, dt: 0.5, q: vec![0.0; 3], qdot: vec![0.0; 3], x: vec![0.0, 1.0, 3.0] };
 /// let mut x = [0.0];
 /// crossym_learn::eval::nominal_at(&traj, 0.75, &mut x);

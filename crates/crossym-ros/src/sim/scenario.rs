@@ -6,7 +6,7 @@
 //! echoes it, teleport the mock hardware to `q_0` (reset topic), record `/joint_states` for
 //! `T·Δt` seconds, resample the measured `q(t)` at `t_k = kΔt` after the reset (linear
 //! interpolation on the header stamps) and score
-//! `RMSE = √(1/(T+1) Σ_k ‖f(q(t_k)) − x_k‖²)` (task units), as in [`crossym_learn::eval::score`].
+//! `RMSE = √(1/(T+1) Σ_k ‖f(q(t_k)) − x_k‖²)` (task units), as in `crossym_learn::eval::score`.
 //! The status stream gives the tick timing and how often the safety filter intervened.
 
 use std::time::{Duration, Instant};
@@ -16,9 +16,9 @@ use ros2_client::NodeOptions;
 use crate::dds::{self, DdsError, DdsSettings};
 use crossym_control::{NodeConfig, StatusCode};
 use crossym_io::msg;
-use crossym_learn::data::letters::JointTrajectory;
 use crossym_math::kinematics::Kinematics;
 use crossym_math::symmetry::compose::Condition;
+use crossym_policy::JointTrajectory;
 
 /// One step of a scenario.
 #[derive(Debug, Clone)]

@@ -4,9 +4,10 @@
 use std::path::Path;
 
 use super::config::{SourceConfig, SourceKind};
-use crate::data::letters::{track, JointTrajectory, Tracking};
+use crate::data::letters::{track, Tracking};
 use crate::data::recording::JointRecording;
 use crossym_math::kinematics::Kinematics;
+use crossym_policy::JointTrajectory;
 
 /// The columns of a CSV source.
 pub(super) enum CsvTable {

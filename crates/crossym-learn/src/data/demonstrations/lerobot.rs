@@ -11,11 +11,11 @@
 use std::path::{Path, PathBuf};
 
 use super::config::{AngleUnit, DemonstrationsConfig, SourceConfig};
-use crate::data::letters::JointTrajectory;
 use crate::data::recorded::{load_recording, Recorded};
 use crate::data::recording::JointRecording;
 use crossym_io::lerobot::{read_states, read_tasks};
 use crossym_math::kinematics::{JointKind, Kinematics};
+use crossym_policy::JointTrajectory;
 
 /// The named demonstrations of a source and what cleaning did to each episode.
 pub(super) type Episodes = (Vec<(String, JointTrajectory)>, Vec<(i64, Recorded)>);

@@ -5,11 +5,11 @@ use std::path::{Path, PathBuf};
 
 use super::config::{DemonstrationsConfig, Pick, SourceConfig, SourceKind};
 use super::csv::{csv_task, parse_csv, CsvTable};
-use crate::data::letters::JointTrajectory;
 use crate::data::recorded::{load_recording, Recorded};
 use crate::data::recording::{open_joint_states, JointRecording};
 use crate::data::DataError;
 use crossym_math::kinematics::Kinematics;
+use crossym_policy::JointTrajectory;
 
 /// What loading did to one source.
 #[derive(Debug, Clone)]

@@ -3,7 +3,7 @@
 use super::load::named;
 use super::*;
 use crate::data::clean::CleanConfig;
-use crate::data::letters::JointTrajectory;
+use crossym_policy::JointTrajectory;
 
 fn parse(text: &str) -> Result<DemonstrationsConfig, String> {
     let d: DemonstrationsConfig = toml::from_str(text).map_err(|e| e.to_string())?;

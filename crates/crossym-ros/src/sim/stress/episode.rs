@@ -9,8 +9,8 @@ use rand::{Rng, SeedableRng};
 use crossym_control::safety::BoundRules;
 use crossym_control::{NodeCore, OutputMode};
 use crossym_io::msg;
-use crossym_learn::policy::AnyPolicy;
 use crossym_math::kinematics::{JointLimits, NullSpaceTerm};
+use crossym_policy::AnyPolicy;
 
 use super::adversary::AdversaryOutput;
 use super::plan::EpisodePlan;

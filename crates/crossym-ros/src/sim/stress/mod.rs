@@ -33,8 +33,8 @@ use rayon::prelude::*;
 
 use crossym_control::safety::BoundRules;
 use crossym_control::{NodeConfig, OutputMode};
-use crossym_learn::policy::Policy;
 use crossym_math::kinematics::{Kinematics, NullSpaceSettings};
+use crossym_policy::Policy;
 
 pub use self::adversary::Adversary;
 pub use self::episode::run_episode;

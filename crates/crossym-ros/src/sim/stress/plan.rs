@@ -7,9 +7,9 @@ use rand::rngs::StdRng;
 use rand::Rng;
 
 use crossym_control::{NodeConfig, OutputMode};
-use crossym_learn::policy::ConditionDomain;
 use crossym_math::kinematics::JointLimits;
 use crossym_math::symmetry::compose::Condition;
+use crossym_policy::ConditionDomain;
 
 use super::adversary::{Adversary, ADVERSARIES};
 use super::robot::Fault;

@@ -4,7 +4,7 @@
 use super::dot::dot;
 use super::packed::{find_blocks, PackedLayer};
 use super::spec::{MlpSpec, MlpWorkspace};
-use crate::policy::error::PolicyFitError;
+use crate::error::PolicyFitError;
 
 /// The network's weights as plain `f64` row-major vectors, with an allocation-free forward.
 ///

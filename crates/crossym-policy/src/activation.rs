@@ -15,7 +15,8 @@ pub fn tanh(x: f64) -> f64 {
 /// Hidden-layer nonlinearity (the output layer is always linear).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-#[non_exhaustive]
+// Exhaustive: training (crossym-learn) matches on it, and a new activation must be
+// implemented there too, which a wildcard arm would hide.
 pub enum Activation {
     /// Hyperbolic tangent (dimensionless, in `(−1, 1)`).
     #[default]

@@ -3,8 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::policy::activation::Activation;
-use crate::policy::error::PolicyFitError;
+use crate::activation::Activation;
+use crate::error::PolicyFitError;
 
 /// Architecture of the network: input width, hidden widths, output width, activation.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::PolicyError;
 use super::error::PolicyFitError;
-use crate::data::letters::JointTrajectory;
+use crate::trajectory::JointTrajectory;
 use crossym_math::symmetry::compose::Condition;
 
 /// Number of condition features appended to the normalised joint positions.

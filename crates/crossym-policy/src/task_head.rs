@@ -36,7 +36,7 @@
 use super::canonical::CanonicalMap;
 use super::error::PolicyFitError;
 use super::mlp::{Policy, PolicyWorkspace};
-use crate::data::letters::JointTrajectory;
+use crate::trajectory::JointTrajectory;
 use crossym_math::kinematics::{
     lift_with_secondary, Kinematics, KinematicsWorkspace, NullSpaceTerm, PinvStatus,
     SecondaryWorkspace,

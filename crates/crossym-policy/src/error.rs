@@ -116,6 +116,9 @@ pub enum PolicyError {
     },
 }
 
+/// Training's tensor errors (`crossym-learn` trains with candle; this crate runs without
+/// it, the conversion only exists when the `candle` feature is on).
+#[cfg(feature = "candle")]
 impl From<candle_core::Error> for PolicyError {
     fn from(e: candle_core::Error) -> Self {
         PolicyError::Backend {
@@ -177,4 +180,43 @@ impl From<PolicyFitError> for String {
     fn from(e: PolicyFitError) -> Self {
         e.to_string()
     }
+}
+
+/// Why a grid of conditions ([`GroupGrid`](crate::GroupGrid)) is refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GridError {
+    /// An explicit list of conditions together with grid settings.
+    #[error(
+        "`conditions` replaces rotation_step_deg, scales, reflection and \
+         max_rotation_deg: give one or the other"
+    )]
+    ConditionsAndGrid,
+    /// An explicit, empty list of conditions.
+    #[error("`conditions` is empty")]
+    NoConditions,
+    /// A condition of the explicit list is out of its domain.
+    #[error("{message}")]
+    Condition {
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The largest rotation is negative or not finite.
+    #[error("max_rotation_deg {max_rotation_deg} must be non-negative")]
+    MaxRotation {
+        /// The setting (degrees).
+        max_rotation_deg: f64,
+    },
+    /// The rotation step is outside `(0, 180]`.
+    #[error("rotation_step_deg {rotation_step_deg} must be in (0, 180]")]
+    RotationStep {
+        /// The setting (degrees).
+        rotation_step_deg: f64,
+    },
+    /// No scale, or a scale that is not positive.
+    #[error("scales {scales:?} must be non-empty and positive")]
+    Scales {
+        /// The setting.
+        scales: Vec<f64>,
+    },
 }

@@ -26,7 +26,7 @@ use super::canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatures};
 use super::error::PolicyError;
 use super::features::Normalizer;
 use super::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};
-use super::train::TrainConfig;
+use super::train_config::TrainConfig;
 use crossym_math::symmetry::transfer::composed::ComposedSpec;
 
 /// Format tag written in the sidecar's `format` field.

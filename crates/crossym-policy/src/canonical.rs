@@ -129,8 +129,8 @@ impl TaskFeatures {
     /// Keeps only the factors of the sub-group the policy is trained on (`Original`: none,
     /// so `x̃ = f(q)`; `G_R`: the rotation; `G_RT`: rotation and scaling; `G_MRT`: all): a
     /// policy trained without a symmetry must not have it undone in its inputs either.
-    pub fn restrict_to(&mut self, group: crate::data::augmentation::SubGroup) {
-        use crate::data::augmentation::SubGroup;
+    pub fn restrict_to(&mut self, group: crate::grid::SubGroup) {
+        use crate::grid::SubGroup;
         let map = &mut self.spec.map;
         if group != SubGroup::MRT {
             map.reflection = None;
@@ -352,7 +352,7 @@ impl TaskFeatures {
     /// [`super::STD_FLOOR`]).
     pub fn fit<'a>(
         &mut self,
-        data: impl IntoIterator<Item = (&'a crate::data::letters::JointTrajectory, Condition)>,
+        data: impl IntoIterator<Item = (&'a crate::trajectory::JointTrajectory, Condition)>,
     ) -> Result<(), PolicyFitError> {
         self.fit_inner(data).map_err(PolicyFitError::robot)
     }
@@ -360,7 +360,7 @@ impl TaskFeatures {
     // The checks of [`Self::fit`], failing with a message.
     fn fit_inner<'a>(
         &mut self,
-        data: impl IntoIterator<Item = (&'a crate::data::letters::JointTrajectory, Condition)>,
+        data: impl IntoIterator<Item = (&'a crate::trajectory::JointTrajectory, Condition)>,
     ) -> Result<(), String> {
         let m = self.dim();
         let mut ws = self.workspace();

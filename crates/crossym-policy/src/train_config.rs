@@ -1,4 +1,4 @@
-//! `[train]`: the network architecture and optimisation settings of [`super::train()`],
+//! `[train]`: the network architecture and optimisation settings of `crossym_learn::train::train`,
 //! validated once; a trained policy records them ([`super::PolicyMeta::train_config`]).
 
 use serde::{Deserialize, Serialize};
@@ -126,7 +126,7 @@ pub struct TrainConfig {
     pub pad_end: bool,
     /// Also feed the network the canonical task-space point `x̃ = g(s)⁻¹ f(q)`
     /// ([`super::canonical`]), differentiated through the FK in the rollout; needs
-    /// [`train_with_features`](super::train_with_features).
+    /// `crossym_learn::train::train_with_features`.
     #[serde(default)]
     pub task_features: bool,
     /// Members of an averaged ensemble (≥ 1): trained from seeds `seed`, `seed + 1`, … on

@@ -3,7 +3,7 @@
 //!
 //! Each iteration samples `B` windows `(τ, t)` uniformly over every valid start `t` of
 //! every training trajectory `τ` (so long demonstrations weigh more), then, in normalised
-//! coordinates `z` (see [`super::features`]), with stride `s` (samples per step) and
+//! coordinates `z` (see [`crossym_policy::features`]), with stride `s` (samples per step) and
 //! `z_i` held at the last sample past a trajectory's end when [`TrainConfig::pad_end`]:
 //!
 //! - rolls the network out for `H` Euler steps of `s Δt` from the demonstrated `z_t`,
@@ -17,9 +17,9 @@
 //! `H` may grow linearly from [`TrainConfig::horizon_start`] (a curriculum).
 //!
 //! With [`TrainConfig::task_features`] the network also reads the canonical task point
-//! (see [`super::canonical`]) of every rollout state, `E_s f(μ + σ_q ⊙ ẑ_k) + e_s`, with the
+//! (see [`crossym_policy::canonical`]) of every rollout state, `E_s f(μ + σ_q ⊙ ẑ_k) + e_s`, with the
 //! trajectory's affine map `(E_s, e_s)` (inverse group action and normalisation, exact in
-//! `f64`, then `f32`) and `f` the batched candle FK ([`super::task_fk::CandleFk`]), so the
+//! `f64`, then `f32`) and `f` the batched candle FK ([`task_fk::CandleFk`]), so the
 //! loss is differentiated through the FK as well.
 //!
 //! Scale: the position residuals are `O(H s Δt g)` times the velocity residuals (with
@@ -44,15 +44,17 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
-use super::activation::Activation;
-use super::canonical::TaskFeatures;
-use super::error::PolicyError;
-use super::features::{encode_condition, Normalizer, CONDITION_FEATURES};
-use super::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};
-use super::task_fk::CandleFk;
-pub use super::train_config::{LrSchedule, TrainConfig};
-use crate::data::letters::JointTrajectory;
 use crossym_math::symmetry::compose::Condition;
+use crossym_policy::activation::Activation;
+use crossym_policy::canonical::TaskFeatures;
+use crossym_policy::error::PolicyError;
+use crossym_policy::features::{encode_condition, Normalizer, CONDITION_FEATURES};
+use crossym_policy::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};
+use crossym_policy::train_config::TrainConfig;
+use crossym_policy::JointTrajectory;
+
+pub mod task_fk;
+pub use task_fk::CandleFk;
 
 /// Outcome of [`train()`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

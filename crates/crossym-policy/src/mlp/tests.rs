@@ -1,8 +1,8 @@
 //! Ensembles, packed layers, allocation-free velocity calls and width checks.
 
 use super::*;
-use crate::policy::activation::Activation;
-use crate::policy::features::Normalizer;
+use crate::activation::Activation;
+use crate::features::Normalizer;
 use crossym_math::symmetry::compose::Condition;
 
 fn policy(n: usize, hidden: Vec<usize>) -> Policy {

@@ -15,11 +15,11 @@
 
 use std::f64::consts::PI;
 
-use crate::data::augmentation::{GroupGrid, SubGroup};
+use crate::grid::{GroupGrid, SubGroup};
 use crossym_math::symmetry::compose::Condition;
 use crossym_math::symmetry::transfer::lift::wrap_angle as wrap;
 
-use super::PolicyMeta;
+use crate::PolicyMeta;
 
 /// Relative slack on the domain's bounds (floating-point round-off of grid values).
 const SLACK: f64 = 1e-9;

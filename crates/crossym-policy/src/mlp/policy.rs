@@ -5,11 +5,11 @@ use serde::{Deserialize, Serialize};
 
 use super::inference::MlpInference;
 use super::spec::{MlpSpec, MlpWorkspace};
-use crate::policy::activation::Activation;
-use crate::policy::canonical::{TaskFeatureWorkspace, TaskFeatures};
-use crate::policy::error::PolicyError;
-use crate::policy::features::{encode_condition, Normalizer, CONDITION_FEATURES};
-use crate::policy::train_config::TrainConfig;
+use crate::activation::Activation;
+use crate::canonical::{TaskFeatureWorkspace, TaskFeatures};
+use crate::error::PolicyError;
+use crate::features::{encode_condition, Normalizer, CONDITION_FEATURES};
+use crate::train_config::TrainConfig;
 use crossym_math::symmetry::compose::Condition;
 
 /// Provenance stored in the sidecar: robot, joints, symmetry, training setup, crate version.
@@ -22,7 +22,7 @@ pub struct PolicyMeta {
     pub joint_names: Vec<String>,
     /// The symmetry the policy was trained with, as given by the caller (free-form).
     pub symmetry: serde_json::Value,
-    /// The training configuration, when the policy was trained by [`crate::policy::train()`].
+    /// The training configuration, when the policy was trained by `crossym_learn::train::train`.
     pub train_config: Option<TrainConfig>,
     /// Version of `crossym` that created or last saved the policy.
     pub crate_version: String,
@@ -31,10 +31,10 @@ pub struct PolicyMeta {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub canonicalised: Option<crossym_math::symmetry::transfer::composed::ComposedSpec>,
     /// For a task-space head `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))`
-    /// ([`crate::policy::TaskHeadPolicy`]): the group's action on `X` (this network is `h`, over
+    /// ([`crate::TaskHeadPolicy`]): the group's action on `X` (this network is `h`, over
     /// the task coordinates); `None` otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub task_head: Option<crate::policy::CanonicalMap>,
+    pub task_head: Option<crate::CanonicalMap>,
 }
 
 impl PolicyMeta {
