@@ -15,9 +15,7 @@ use super::feasibility::feasibility;
 use super::fit::{checked_domain, checked_policy};
 use super::gate::InputGate;
 use super::gate::Inputs;
-use super::motion::{Motion, MotionSupervisor};
 use super::operator::{OperatorRefusal, OperatorRequest, RuntimeBounds, RuntimeSettings};
-use super::period::{EventTotals, StatusPeriod};
 use super::rejection::Rejection;
 use super::singularity::{SingularityBand, SingularityReport, SingularityStatus};
 use super::stage::{OutputStage, PolicyOutput};
@@ -78,17 +76,6 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     not_following_ticks: u64,
     tracking_warning_ticks: u64,
     tracking_error: f64,
-    // Position modes: held-robot and locked-joint detection, and the node's reaction.
-    motion: MotionSupervisor,
-    held: Held,
-    held_events: u64,
-    locked_events: u64,
-    locked_joint: Option<usize>,
-    // The last fresh tick (a long silence of the joint states restarts position modes from
-    // the measured state).
-    last_fresh_s: f64,
-    // Subscribers matched on the command topic (`None`: not known).
-    command_subscribers: Option<u32>,
     // Operator controls: the singularity band, pause, the velocity scale, what may change.
     band: SingularityBand,
     singular: SingularityReport,
@@ -109,18 +96,6 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     age_s: f64,
     tick_time_us: f64,
     tick_time_max_us: f64,
-    period: StatusPeriod,
-}
-
-/// A held robot's handling (position modes).
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Held {
-    /// Not held.
-    Clear,
-    /// Found held: holding at the measured state until the time (s).
-    Dwell(f64),
-    /// Trying the policy again; reported held until a joint moves.
-    Probe,
 }
 
 impl NodeCore {
@@ -237,13 +212,6 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             not_following_ticks: 0,
             tracking_warning_ticks: 0,
             tracking_error: 0.0,
-            motion: MotionSupervisor::new(n, cfg.motion, fs.latency() + fs.state_delay_s),
-            held: Held::Clear,
-            held_events: 0,
-            locked_events: 0,
-            locked_joint: None,
-            last_fresh_s: f64::NEG_INFINITY,
-            command_subscribers: None,
             band,
             singular: SingularityReport {
                 status: SingularityStatus::Clear,
@@ -265,7 +233,6 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             age_s: -1.0,
             tick_time_us: 0.0,
             tick_time_max_us: 0.0,
-            period: StatusPeriod::new(),
             cfg,
             kin,
         })
