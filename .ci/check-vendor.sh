@@ -33,3 +33,4 @@ check() {
 
 check rustdds 0.15.1
 check ros2-client 0.12.1
+check clarabel 0.11.1
