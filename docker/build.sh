@@ -59,9 +59,14 @@ case "$PROFILE" in
     debug) cargo_profile=() ;;
     *) echo "CROSSYM_DOCKER_PROFILE must be release or debug, not $PROFILE" >&2; exit 2 ;;
 esac
-# The default feature set: CI's build is reused as is (the image drops the test-only
-# fault-injection feature).
+# The default feature set, or CROSSYM_DOCKER_FEATURES (CI: `teach`, the set of its test
+# build, which is then reused as is). The image itself is built with --no-default-features:
+# without `fault-injection`, the deliberately broken filters of `crossym stress --break` (on
+# by default for the CLI and the tests), and without `teach`.
 cargo_features=()
+if [ -n "${CROSSYM_DOCKER_FEATURES:-}" ]; then
+    cargo_features=(--features "$CROSSYM_DOCKER_FEATURES")
+fi
 
 echo "== docker/build.sh: repo $repo, profile $PROFILE, ROS $DISTRO"
 if ! command -v "$PY" >/dev/null 2>&1; then

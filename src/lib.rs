@@ -62,8 +62,12 @@
 
 pub use crossym_control as control;
 pub use crossym_control::safety;
-pub use crossym_io::{bag, lerobot, msg, msgdef};
-pub use crossym_learn::{data, eval, train};
+#[cfg(feature = "teach")]
+pub use crossym_io::lerobot;
+pub use crossym_io::{bag, msg, msgdef};
+#[cfg(feature = "teach")]
+pub use crossym_learn::train;
+pub use crossym_learn::{data, eval};
 pub use crossym_math::{kinematics, symmetry};
 pub use crossym_policy as policy;
 pub use crossym_ros as ros;

@@ -243,3 +243,15 @@ impl NodeTarget {
         Ok(crossym::setup::node_config(&cfg, &over)?)
     }
 }
+
+/// The error of a command this build leaves out (the `teach` feature: training with
+/// candle, LeRobot datasets, SQLite3 bags), with the command that builds it.
+#[cfg(not(feature = "teach"))]
+pub fn needs_teach(command: &str) -> anyhow::Result<std::process::ExitCode> {
+    anyhow::bail!(
+        "`crossym {command}` is part of the teaching stack (training with candle, LeRobot \
+         datasets, SQLite3 bags), which this build of crossym leaves out; build it with the \
+         `teach` feature: `cargo build --release --features teach` (or `cargo run --release \
+         --features teach -- {command} …`)"
+    )
+}

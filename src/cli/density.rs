@@ -5,6 +5,8 @@
 //! grid: RMSE (task units) against θ, one curve per Δθ. `--equivariant P` adds the curve
 //! of a canonicalised policy (issue 18: trained on the originals only, no rotation grid at
 //! all), flat by construction.
+// Without the `teach` feature only the options remain (`run` says how to get the command).
+#![cfg_attr(not(feature = "teach"), allow(dead_code, unused_imports))]
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -45,7 +47,14 @@ pub struct DensityArgs {
     pub out: PathBuf,
 }
 
+/// Without the `teach` feature: an error saying how to build the command.
+#[cfg(not(feature = "teach"))]
+pub fn run(_: &DensityArgs) -> anyhow::Result<ExitCode> {
+    super::common::needs_teach("density")
+}
+
 /// `crossym density`.
+#[cfg(feature = "teach")]
 pub fn run(a: &DensityArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(&a.config)?;
     let mut tc = cfg
@@ -139,6 +148,7 @@ pub fn run(a: &DensityArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// `--equivariant P`: the canonicalised policy `P` (refused when plain).
+#[cfg(feature = "teach")]
 fn load_equivariant(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,
@@ -179,6 +189,7 @@ impl Tables {
 
     /// One training step Δθ = `step` (its curve colour, the trajectories trained on, the
     /// training report) and its rows `(θ°, mean, count, diverged)`.
+    #[cfg(feature = "teach")]
     fn add_step(
         &mut self,
         step: f64,

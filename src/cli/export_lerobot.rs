@@ -1,11 +1,14 @@
 //! `crossym export-lerobot`: the configured demonstrations written as a LeRobotDataset
 //! (v3.0), so data taught from bags or CSV files can be used by the LeRobot tools
 //! ([`crossym::lerobot::write_dataset`]).
+// Without the `teach` feature only the options remain (`run` says how to get the command).
+#![cfg_attr(not(feature = "teach"), allow(dead_code, unused_imports))]
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use crossym::config::Config;
+#[cfg(feature = "teach")]
 use crossym::lerobot::{write_dataset, EpisodeFrames};
 
 /// Options of `crossym export-lerobot`.
@@ -22,8 +25,15 @@ pub struct ExportLerobotArgs {
     pub task: Option<String>,
 }
 
+/// Without the `teach` feature: an error saying how to build the command.
+#[cfg(not(feature = "teach"))]
+pub fn run(_: &ExportLerobotArgs) -> anyhow::Result<ExitCode> {
+    super::common::needs_teach("export-lerobot")
+}
+
 /// `crossym export-lerobot`: one episode per demonstration, in demonstration order, frames
 /// every `[demonstrations] dt`, `observation.state` named by the robot's joints.
+#[cfg(feature = "teach")]
 pub fn run(a: &ExportLerobotArgs) -> anyhow::Result<ExitCode> {
     let cfg = Config::from_file(&a.config)?;
     let robot = cfg.load_robot()?;

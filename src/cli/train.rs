@@ -1,6 +1,8 @@
 //! `crossym train`: a symmetry-conditioned policy trained on the demonstrations augmented
 //! with a sub-group, canonicalised (`--equivariant`) or as a task-space head
 //! (`--task-head`); the weights, their sidecar and the loss log written.
+// Without the `teach` feature only the options remain (`run` says how to get the command).
+#![cfg_attr(not(feature = "teach"), allow(dead_code, unused_imports))]
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -98,7 +100,14 @@ impl TrainKind {
     }
 }
 
+/// Without the `teach` feature: an error saying how to build the command.
+#[cfg(not(feature = "teach"))]
+pub fn run(_: &TrainArgs) -> anyhow::Result<ExitCode> {
+    super::common::needs_teach("train")
+}
+
 /// `crossym train`.
+#[cfg(feature = "teach")]
 pub fn run(a: &TrainArgs) -> anyhow::Result<ExitCode> {
     let kind = TrainKind::from_flags(a.equivariant, a.task_head);
     let (path, out, iterations) = (&a.config, a.out.as_path(), a.iterations);
@@ -200,6 +209,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// The line announcing what is trained.
+#[cfg(feature = "teach")]
 fn announce(
     kind: TrainKind,
     p: &crossym::pipeline::Pipeline,
@@ -236,6 +246,7 @@ fn announce(
 
 /// Saves the trained `policy` for each of `groups` (a task head canonicalised by each,
 /// `{group}` in `out` replaced by its name); the files, in order.
+#[cfg(feature = "teach")]
 fn save(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,

@@ -18,11 +18,14 @@ use crate::data::augmentation::{letter_augmenter, AugmentedSet};
 use crate::data::demonstrations::Demonstrations;
 use crate::kinematics::Kinematics;
 use crate::policy::JointTrajectory;
-use crate::policy::{AnyPolicy, CanonicalMap, Policy, PolicyMeta, TaskFeatures, TrainConfig};
+#[cfg(feature = "teach")]
+use crate::policy::PolicyMeta;
+use crate::policy::{AnyPolicy, CanonicalMap, Policy, TaskFeatures, TrainConfig};
 use crate::policy::{GroupGrid, SubGroup};
 use crate::symmetry::check::BuiltSymmetry;
 use crate::symmetry::compose::Condition;
 use crate::symmetry::transfer::composed::{ComposedSpec, LiftIntegrator};
+#[cfg(feature = "teach")]
 use crate::train::TrainReport;
 
 pub mod figures;
@@ -377,6 +380,7 @@ pub fn pick_demo(
         .ok_or_else(|| missing(Some(which)))
 }
 
+#[cfg(feature = "teach")]
 /// What [`train`] produced.
 #[derive(Debug)]
 pub struct Trained {
@@ -388,6 +392,7 @@ pub struct Trained {
     pub trajectories: usize,
 }
 
+#[cfg(feature = "teach")]
 /// Trains a policy on the training demonstrations augmented with sub-group `group` under
 /// `tc` (usually `[train]`, iterations possibly overridden); `on_iteration(it, loss)` is
 /// called as training goes.
@@ -422,6 +427,7 @@ pub fn train(
     })
 }
 
+#[cfg(feature = "teach")]
 /// Trains `π₀` on the original demonstrations (identity condition) and canonicalises it by
 /// the configuration's composition (issue 18): the policy file's sidecar records the
 /// composition ([`PolicyMeta::canonicalised`]) and every consumer evaluates
@@ -461,6 +467,7 @@ pub fn group_map(
     Ok(f.spec().map.clone())
 }
 
+#[cfg(feature = "teach")]
 /// Trains a task-space head `h` on the original demonstrations' task paths (identity
 /// condition; `[train]` with task features off, as `h` reads the task point itself) and
 /// writes it canonicalised by `group`'s action on `X` and lifted to `Q` (issue 17,

@@ -4,10 +4,12 @@
 //! refuses broken files.
 
 use crossym::pipeline::nominal_trajectories;
-use crossym::policy::JointTrajectory;
-use crossym::policy::{LrSchedule, Policy, PolicyMeta, TaskFeatures, TrainConfig};
+#[cfg(feature = "teach")]
+use crossym::policy::{JointTrajectory, LrSchedule, PolicyMeta, TrainConfig};
+use crossym::policy::{Policy, TaskFeatures};
 use crossym::symmetry::check::build;
 use crossym::symmetry::compose::Condition;
+#[cfg(feature = "teach")]
 use crossym::train::train_with_features;
 
 use crate::common;
@@ -97,6 +99,7 @@ fn training_affine_map_equals_inference_encoding() {
     f.check_kinematics(kin).unwrap();
 }
 
+#[cfg(feature = "teach")]
 fn tiny_config() -> TrainConfig {
     TrainConfig {
         hidden: vec![16, 16],
@@ -115,6 +118,7 @@ fn tiny_config() -> TrainConfig {
     }
 }
 
+#[cfg(feature = "teach")]
 #[test]
 fn task_feature_policy_trains_saves_loads_and_checks_its_robot() {
     let (cfg, robot, demos, f) = letter_features();

@@ -16,6 +16,8 @@ mod equivariant_node;
 mod eval;
 mod faults;
 mod kinematics;
+// Needs the `teach` feature (training, LeRobot datasets, SQLite3 bags; CI: --all-features).
+#[cfg(feature = "teach")]
 mod lerobot;
 mod lifecycle;
 mod lift_compose;
@@ -24,9 +26,13 @@ mod operator;
 mod operator_services;
 mod physics;
 mod pins;
+// Needs the `teach` feature (training, LeRobot datasets, SQLite3 bags; CI: --all-features).
+#[cfg(feature = "teach")]
 mod policy;
 mod rby1_tasks;
 mod rclpy;
+// Needs the `teach` feature (training, LeRobot datasets, SQLite3 bags; CI: --all-features).
+#[cfg(feature = "teach")]
 mod recordings;
 mod redundancy;
 mod reference;
@@ -38,4 +44,6 @@ mod sim;
 #[path = "../support/skip.rs"]
 mod skip;
 mod task_induced;
+// Needs the `teach` feature (training, LeRobot datasets, SQLite3 bags; CI: --all-features).
+#[cfg(feature = "teach")]
 mod teach;

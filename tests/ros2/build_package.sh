@@ -48,7 +48,7 @@ t0=$SECONDS
         --paths "$ws/src/crossym_msgs" "$ws/src/crossym" --build-base "$ws/build" --install-base "$ws/install" \
         --event-handlers console_direct- \
         --cmake-args -DBUILD_TESTING=OFF "-DPython3_EXECUTABLE=$venv/bin/python3" \
-            -DCROSSYM_CARGO_PROFILE=dev --no-warn-unused-cli -Wno-dev -Wno-deprecated
+            -DCROSSYM_CARGO_PROFILE=dev "-DCROSSYM_CARGO_FEATURES=${CROSSYM_CARGO_FEATURES:-}" --no-warn-unused-cli -Wno-dev -Wno-deprecated
 ) || { echo "build_package.sh: colcon build failed; logs in $ws/log/latest_build" >&2; exit 1; }
 echo "build_package.sh $d: colcon built crossym_msgs and crossym in $((SECONDS - t0)) s into $ws/install"
 

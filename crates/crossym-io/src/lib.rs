@@ -36,6 +36,7 @@
 #![warn(missing_docs)]
 
 pub mod bag;
+#[cfg(feature = "lerobot")]
 pub mod lerobot;
 pub mod msg;
 pub mod msgdef;

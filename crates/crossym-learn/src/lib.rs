@@ -3,7 +3,7 @@
 //! Symmetry-conditioned policies learned by imitation (paper Sec. VI-A):
 //! - [`data`]: demonstrations from every source (LASA letters, reaches, rosbag2 recordings,
 //!   CSV), their cleaning, and the augmentation by the lifted composed group (eq. 23);
-//! - [`train`](mod@train): training the policies of `crossym-policy` (joint-space MLP,
+//! - `train` (cargo feature `train`): training the policies of `crossym-policy` (joint-space MLP,
 //!   canonicalised, task-space head) with candle;
 //! - [`eval`]: rollouts and Table II scores in both protocols, and the figures.
 //!
@@ -15,7 +15,7 @@
 //!
 //! The paper's training grid of `G_MRT` without scaling: θ every 30° in [−180°, 180°] and
 //! both reflections, 26 conditions `s = (θ, λ, σ)`; a tiny untrained policy (random weights
-//! in the shape of a trained one, as [`train::train()`] returns) evaluated at each.
+//! in the shape of a trained one, as `train::train()` returns) evaluated at each.
 //!
 //! ```
 //! use crossym_policy::GroupGrid;
@@ -42,4 +42,5 @@
 
 pub mod data;
 pub mod eval;
+#[cfg(feature = "train")]
 pub mod train;

@@ -30,6 +30,19 @@ pub enum BagError {
         /// SQLite's description.
         message: String,
     },
+    /// A storage this build cannot read (its reader is behind a cargo feature, off here).
+    #[error(
+        "{path}: {what} are read only by a build with crossym-io's `{feature}` feature \
+         (the crossym binary: `cargo build --release --features teach`)"
+    )]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+        /// What cannot be read, e.g. "SQLite3 bags".
+        what: &'static str,
+        /// The cargo feature of crossym-io that reads it.
+        feature: &'static str,
+    },
     /// The MCAP profile is not `ros2` or a channel is not CDR.
     #[error("{path}: {message}")]
     NotRos2 {

@@ -21,6 +21,7 @@ mod error;
 pub mod reader;
 pub mod schema;
 mod split;
+#[cfg(feature = "sqlite")]
 pub mod sqlite;
 pub mod writer;
 

@@ -43,7 +43,14 @@ impl Bag {
     /// Opens one storage file (`.db3`: SQLite3, else MCAP).
     fn open_file(file: &Path) -> Result<Self, BagError> {
         if file.extension().is_some_and(|e| e == "db3") {
+            #[cfg(feature = "sqlite")]
             return super::sqlite::open(file);
+            #[cfg(not(feature = "sqlite"))]
+            return Err(BagError::Unsupported {
+                path: file.to_path_buf(),
+                what: "SQLite3 bags",
+                feature: "sqlite",
+            });
         }
         let buf = std::fs::read(file).map_err(|source| BagError::Io {
             path: file.to_path_buf(),

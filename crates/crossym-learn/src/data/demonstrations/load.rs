@@ -213,6 +213,15 @@ fn load_source(
     kin: &Kinematics,
 ) -> Result<SourceDemos, String> {
     let kind = s.resolved_kind().map_err(|e| e.to_string())?;
+    #[cfg(not(feature = "lerobot"))]
+    if kind == SourceKind::Lerobot {
+        return Err(format!(
+            "source {:?}: LeRobot datasets are read only by a build with crossym-learn's \
+             `lerobot` feature (the crossym binary: `cargo build --release --features teach`)",
+            s.name
+        ));
+    }
+    #[cfg(feature = "lerobot")]
     if kind == SourceKind::Lerobot {
         let (demos, episodes) = super::lerobot::load(cfg, s, resolve, kin)?;
         return Ok(SourceDemos {

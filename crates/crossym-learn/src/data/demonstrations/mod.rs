@@ -37,6 +37,7 @@
 
 pub mod config;
 mod csv;
+#[cfg(feature = "lerobot")]
 mod lerobot;
 pub mod load;
 
