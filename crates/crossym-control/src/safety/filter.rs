@@ -104,6 +104,8 @@ pub struct SafetyFilter<R: BoundRules = ExactBounds> {
     settings: SafetySettings,
     /// Clarabel, set up once: where the active-set solver declines.
     qp: ClarabelQp,
+    /// QPs handed to Clarabel since setup.
+    clarabel_solves: u64,
     /// The dense active-set solver tried first ([`super::active_set`]).
     active_set: ActiveSetWorkspace,
     barrier_rows: usize,
@@ -157,6 +159,7 @@ impl<R: BoundRules> SafetyFilter<R> {
             limits: limits.to_vec(),
             settings,
             qp,
+            clarabel_solves: 0,
             active_set: ActiveSetWorkspace::new(n),
             barrier_rows: br,
             w: DMatrix::zeros(n, n),
@@ -165,6 +168,12 @@ impl<R: BoundRules> SafetyFilter<R> {
             v: vec![0.0; n],
             last: vec![0.0; n],
         })
+    }
+
+    /// QPs the active-set solver declined and Clarabel solved since setup (count): how often
+    /// a tick takes the slower path.
+    pub fn clarabel_solves(&self) -> u64 {
+        self.clarabel_solves
     }
 
     /// Sets the margin kept inside the position limits from the next tick on (the caller
@@ -317,6 +326,7 @@ impl<R: BoundRules> SafetyFilter<R> {
                 return self.finish(now_s, out, report);
             }
             let row = barrier.map(|b| (b.gradient, b.value));
+            self.clarabel_solves += 1;
             let solved = self
                 .qp
                 .solve(&self.w, &self.v, &self.lo, &self.hi, row, gamma);

@@ -1,7 +1,8 @@
 //! The safety filter's QP for Clarabel, set up once: `min ½xᵀPx + qᵀx` s.t. `Ax + s = b`,
 //! `s ≥ 0`, with `P = 2W` (dense upper triangle), `q = −2Wv`, `A = [I; −I; −g]`,
 //! `b = [hi; −lo; γh]`. Each solve only updates `P`, `q`, `b` (and the barrier row of `A`)
-//! in place, following Clarabel's data-updating API.
+//! in place, following Clarabel's data-updating API. Setup runs one solve, so that every
+//! tick's solve allocates nothing (Clarabel's timers, vendor/README.md).
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
@@ -65,12 +66,16 @@ impl ClarabelQp {
                 message: format!("{e:?}"),
             })?;
         let cones = [NonnegativeConeT(m)];
-        let solver =
+        let mut solver =
             DefaultSolver::new(&p, &q_vec, &a, &b_vec, &cones, settings_c).map_err(|e| {
                 SafetyError::Solver {
                     message: e.to_string(),
                 }
             })?;
+        // One solve at setup builds Clarabel's timer tree; the vendored Clarabel keeps it
+        // across solves (vendor/README.md), so no tick's solve allocates. A solve depends
+        // only on the data it is given, not on earlier solves (`tests::history_free`).
+        solver.solve();
         Ok(Self {
             solver,
             barrier_row,
@@ -147,5 +152,80 @@ impl ClarabelQp {
     /// The last solution (`n` entries).
     pub(crate) fn solution(&self) -> &[f64] {
         &self.solver.solution.x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A QP: `W`, `v`, the box `lo`, `hi` and a row (gradient, value).
+    struct Instance {
+        w: DMatrix<f64>,
+        v: Vec<f64>,
+        lo: Vec<f64>,
+        hi: Vec<f64>,
+        gradient: Vec<f64>,
+        value: f64,
+    }
+
+    /// A deterministic QP of `n` joints: `W = GᵀG + 0.1 I`, `v`, a box around 0 and a row.
+    fn instance(k: u64, n: usize) -> Instance {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ k.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        let mut r = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let g = DMatrix::from_fn(n, n, |_, _| r());
+        let w = g.transpose() * &g + DMatrix::identity(n, n) * 0.1;
+        let v: Vec<f64> = (0..n).map(|_| 3.0 * r()).collect();
+        let lo: Vec<f64> = (0..n).map(|_| -0.5 - r().abs()).collect();
+        let hi: Vec<f64> = (0..n).map(|_| 0.5 + r().abs()).collect();
+        let gradient: Vec<f64> = (0..n).map(|_| r()).collect();
+        Instance {
+            w,
+            v,
+            lo,
+            hi,
+            gradient,
+            value: 0.3 * r(),
+        }
+    }
+
+    /// A solve's result depends only on its data: one solver reused over 200 QPs (as the
+    /// filter reuses it) gives, bit for bit, what a new solver gives on each — so the
+    /// setup's solve changes no tick's result.
+    #[test]
+    fn history_free() {
+        for (n, barrier) in [(8, true), (14, true), (7, false)] {
+            let mut shared = ClarabelQp::new(n, barrier, 50).unwrap();
+            let mut solved = 0;
+            for k in 0..200 {
+                let Instance {
+                    w,
+                    v,
+                    lo,
+                    hi,
+                    gradient,
+                    value,
+                } = instance(k, n);
+                let row = barrier.then_some((gradient.as_slice(), value));
+                let a = shared.solve(&w, &v, &lo, &hi, row, 1.0);
+                let mut fresh = ClarabelQp::new(n, barrier, 50).unwrap();
+                let b = fresh.solve(&w, &v, &lo, &hi, row, 1.0);
+                assert_eq!(a, b, "n = {n}, QP {k}: status");
+                assert_eq!(shared.iterations(), fresh.iterations(), "n = {n}, QP {k}");
+                let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(shared.solution()),
+                    bits(fresh.solution()),
+                    "n = {n}, QP {k}: solution"
+                );
+                solved += usize::from(a);
+            }
+            assert!(solved > 150, "n = {n}: {solved} of 200 solved");
+        }
     }
 }
