@@ -8,6 +8,12 @@
    module's `mod.rs` / `lib.rs` declaring its children is not an import. Cycles are
    reported as the files on them.
 
+3. Re-exports: no crate but the application package `crossym` re-exports another crossym
+   crate's items (`pub use crossym_x::…`): a type is named where it is defined.
+4. Dependencies: every normal dependency of a crate is named by its non-test code
+   (`src/`, `build.rs`; inline `#[cfg(test)]` modules and `tests.rs` files are test code,
+   whose dependencies belong in [dev-dependencies]).
+
 Exits 1 with the offending edges or cycles; prints the floors and file counts otherwise.
 `python3 .ci/check-layers.py --selftest` runs the checker on deliberately broken inputs.
 """
@@ -209,6 +215,99 @@ def check_files(crate, src):
     return len(files), errors
 
 
+def strip_test_modules(text):
+    """The text without its inline `#[cfg(test)] mod name { … }` blocks."""
+    out, i = [], 0
+    for m in re.finditer(r"#\[cfg\(test\)\]\s*(?:pub(?:\([^)]*\))?\s+)?mod\s+\w+\s*\{", text):
+        if m.start() < i:
+            continue
+        depth, j = 1, m.end()
+        while j < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[j], 0)
+            j += 1
+        out.append(text[i:m.start()])
+        i = j
+    out.append(text[i:])
+    return "".join(out)
+
+
+def code_only(text):
+    """Rust source without comments and with every string and char literal emptied, so
+    that braces and names inside them (`"/**"`, `'{'`) count for nothing."""
+    out, i, n = [], 0, len(text)
+    while i < n:
+        c = text[i]
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+        elif text.startswith("/*", i):
+            depth, i = 1, i + 2
+            while i < n and depth:
+                if text.startswith("/*", i):
+                    depth, i = depth + 1, i + 2
+                elif text.startswith("*/", i):
+                    depth, i = depth - 1, i + 2
+                else:
+                    i += 1
+        elif c == "r" and re.match(r'r(#*)"', text[i:i + 260]) and not (i and (text[i - 1].isalnum() or text[i - 1] == "_")):
+            hashes = re.match(r'r(#*)"', text[i:]).group(1)
+            end = text.find('"' + hashes, i + 2 + len(hashes))
+            out.append('""')
+            i = n if end < 0 else end + 1 + len(hashes)
+        elif c == '"':
+            i += 1
+            while i < n and text[i] != '"':
+                i += 2 if text[i] == "\\" else 1
+            out.append('""')
+            i += 1
+        elif c == "'" and re.match(r"'(\\.[^']*|[^\\'])'", text[i:i + 12]):
+            m = re.match(r"'(\\.[^']*|[^\\'])'", text[i:])
+            out.append("' '")
+            i += m.end()
+        else:
+            out.append(c)
+            i += 1
+    return "".join(out)
+
+
+def unused_dependencies(package):
+    """Normal dependencies of a package that its non-test code never names."""
+    root = Path(package["manifest_path"]).parent
+    code = ""
+    for f in sorted((root / "src").rglob("*.rs")):
+        if f.name != "tests.rs":
+            code += strip_test_modules(code_only(f.read_text()))
+    if (root / "build.rs").exists():
+        code += code_only((root / "build.rs").read_text())
+    return unused_in(package, code)
+
+
+def unused_in(package, code):
+    out = []
+    for d in package["dependencies"]:
+        if d["kind"] is not None:
+            continue
+        name = (d.get("rename") or d["name"]).replace("-", "_")
+        if not re.search(r"\b" + re.escape(name) + r"\b", code):
+            out.append(f"{package['name']}: dependency {d['name']} is not used by its code "
+                       "(remove it, or move it to [dev-dependencies] if only tests use it)")
+    return out
+
+
+def cross_floor_reexports(package):
+    """`pub use` of another crossym crate's items, outside the application package."""
+    if package["name"] == "crossym":
+        return []
+    root = Path(package["manifest_path"]).parent / "src"
+    out = []
+    for f in sorted(root.rglob("*.rs")):
+        for m in re.finditer(r"\bpub(?:\([^)]*\))?\s+use\s+(::)?(crossym_\w+)", code_only(f.read_text())):
+            if m.group(2).replace("_", "-") != package["name"]:
+                out.append(f"{package['name']}: {f.relative_to(root.parent)} re-exports "
+                           f"{m.group(2)} (a crate of another floor): import it where it is used")
+    return out
+
+
 def run(root):
     meta = json.loads(subprocess.check_output(
         ["cargo", "metadata", "--format-version", "1", "--no-deps", "--offline"], cwd=root))
@@ -217,7 +316,7 @@ def run(root):
     for p in meta["packages"]:
         src = Path(p["manifest_path"]).parent / "src"
         n, errs = check_files(p["name"], src)
-        errors += errs
+        errors += errs + unused_dependencies(p) + cross_floor_reexports(p)
         counts.append(f"{p['name']} (floor {FLOORS.get(p['name'], '?')}, {n} files)")
     if errors:
         print("\n".join(f"error: {e}" for e in errors), file=sys.stderr)
@@ -227,8 +326,20 @@ def run(root):
 
 
 def selftest():
-    """The checker fails on an upward crate edge and on a file cycle, passes on neither."""
+    """The checker fails on an upward crate edge, a file cycle and an unused dependency,
+    passes on none."""
     import tempfile
+    pkg = {"name": "crossym-x", "dependencies": [
+        {"name": "rand", "kind": None}, {"name": "toml", "kind": None},
+        {"name": "approx", "kind": "dev"}]}
+    assert code_only('let s = "/**"; let c = \'{\'; // toml::x\n/* toml */ r#"toml"#') == \
+        'let s = ""; let c = \' \'; \n ""', "comments or literals survived"
+    code = strip_test_modules(
+        "use rand::Rng;\n#[cfg(test)]\nmod tests {\n    fn f() { toml::from_str(\"\"); { } }\n}\n")
+    assert unused_in(pkg, code) == [
+        "crossym-x: dependency toml is not used by its code (remove it, or move it to "
+        "[dev-dependencies] if only tests use it)"], "a test-only normal dependency passed"
+    assert unused_in(pkg, code + "fn g() { toml::x() }") == [], "a used dependency was refused"
     meta = {"packages": [
         {"name": "crossym-math", "dependencies": [{"name": "crossym-learn", "kind": None}]},
         {"name": "crossym-learn", "dependencies": [{"name": "crossym-math", "kind": None}]},
@@ -254,7 +365,17 @@ def selftest():
         (src / "a" / "y.rs").write_text("use super::X;\npub struct Y;\n")
         errs = check_files("c", src)[1]
         assert len(errs) == 1 and "x.rs" in errs[0] and "y.rs" in errs[0], errs
-    print("selftest ok: an upward crate edge and a file cycle (direct or through a re-export) are caught")
+    with tempfile.TemporaryDirectory() as d:
+        src = Path(d) / "src"
+        src.mkdir()
+        (src / "lib.rs").write_text("pub use crossym_control::Severity;\npub use self::a::A;\n")
+        pkg = {"name": "crossym-ros", "manifest_path": str(Path(d) / "Cargo.toml")}
+        errs = cross_floor_reexports(pkg)
+        assert len(errs) == 1 and "re-exports crossym_control" in errs[0], errs
+        (src / "lib.rs").write_text("use crossym_control::Severity;\n// pub use crossym_io::msg;\n")
+        assert cross_floor_reexports(pkg) == [], "an import was taken for a re-export"
+    print("selftest ok: an upward crate edge, a file cycle (direct or through a re-export), "
+          "an unused dependency and a cross-floor re-export are caught")
     return 0
 
 

@@ -11,7 +11,7 @@ use clap::{Args, ValueEnum};
 use crossym::config::Config;
 use crossym::control::{OutputMode, Trigger};
 use crossym::pipeline::Splits;
-use crossym::ros::log::Severity;
+use crossym::control::Severity;
 use crossym::setup::NodeOverrides;
 use crossym::sim::physics::Plant;
 

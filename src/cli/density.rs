@@ -153,7 +153,7 @@ fn load_equivariant(
     cfg: &Config,
     kin: &crossym::kinematics::Kinematics,
     p: &Path,
-) -> anyhow::Result<crossym::eval::AnyPolicy> {
+) -> anyhow::Result<crossym::policy::AnyPolicy> {
     let policy = crossym::pipeline::load_any_policy(cfg, kin, p)?;
     anyhow::ensure!(
         policy.composition().is_some(),

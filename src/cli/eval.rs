@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use crossym::config::Config;
-use crossym::eval::AnyPolicy;
+use crossym::policy::AnyPolicy;
 use crossym::pipeline::Splits;
 
 use super::common::pipeline;

@@ -1,10 +1,10 @@
-//! Canonicalised policies (issue 18): the composed lifted action's inverse, and the
+//! Canonicalised policies: the composed lifted action's inverse, and the
 //! conjugacy of the closed loops, `q_s(t) = Φ_g(q_e(t))`, checked in task space against the
 //! task-space group action `g · x` (descended reflection, rotation and scaling acting on
 //! `X`, not the lifted flows under test).
 
 use crossym::policy::{EquivariantPolicy, Policy};
-use crossym::symmetry::check::BuiltSymmetry;
+use crossym::symmetry::built::BuiltSymmetry;
 use crossym::symmetry::compose::{apply_condition, Condition};
 use crossym::symmetry::transfer::composed::{ComposedLift, LiftIntegrator};
 use crossym::symmetry::transfer::flow::FlowSettings;
@@ -654,7 +654,7 @@ fn density_curve_of_the_canonicalised_policy_is_flat() {
     assert!(String::from_utf8_lossy(&plain.stderr).contains("not a canonicalised policy"));
 }
 
-/// Task-space heads (issue 17): `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))`. Under any
+/// Task-space heads: `π(q, s) = J⁺(q) Dg(s) h(g(s)⁻¹ f(q))`. Under any
 /// condition the task point of the closed loop is `g ·` the identity closed loop's task
 /// point, checked against the task-space action of the configured symmetries (not the
 /// head's own map), from `Φ_g(q_start)` (a configuration drawing `g · f(q_start)`), with

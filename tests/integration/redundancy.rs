@@ -1,4 +1,4 @@
-//! Redundancy resolution (issue 37): the null-space term `(I − J⁺J) v₀(q)` added to a task
+//! Redundancy resolution: the null-space term `(I − J⁺J) v₀(q)` added to a task
 //! head's lift leaves the task velocity, and so the head's exact task-space equivariance,
 //! untouched; it is equivariant itself under a reflection that maps rest and limits onto
 //! themselves; switched off it is the plain lift bit for bit.
@@ -10,7 +10,7 @@ use crossym::kinematics::{
     lift_with_secondary, Kinematics, NullSpaceSettings, NullSpaceTerm, SecondaryWorkspace,
 };
 use crossym::policy::{AnyPolicy, TaskHeadPolicy};
-use crossym::symmetry::check::BuiltSymmetry;
+use crossym::symmetry::built::BuiltSymmetry;
 use crossym::symmetry::compose::Condition;
 use crossym::symmetry::transfer::composed::{ComposedLift, LiftIntegrator};
 use crossym::symmetry::transfer::flow::FlowSettings;

@@ -28,13 +28,11 @@ use super::error::PolicyFitError;
 use serde::{Deserialize, Serialize};
 
 use crossym_math::kinematics::{Chain, ChainFactors, ChainWorkspace, Kinematics};
-use crossym_math::symmetry::check::BuiltSymmetry;
+use crossym_math::symmetry::built::BuiltSymmetry;
 use crossym_math::symmetry::compose::Condition;
 
 use crossym_math::symmetry::affine::max_diff;
-pub use crossym_math::symmetry::affine::{
-    CanonicalMap, OneParamAction, OneParamKind, StoredPermutation,
-};
+use crossym_math::symmetry::affine::{CanonicalMap, OneParamAction, OneParamKind, StoredPermutation};
 
 /// One chain of the policy's FK: where it reads `q`, and its factors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -22,7 +22,8 @@ use safetensors::tensor::TensorView;
 use safetensors::{Dtype, SafeTensors};
 use serde::{Deserialize, Serialize};
 
-use super::canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatures};
+use super::canonical::{TaskFeatureSpec, TaskFeatures};
+use crossym_math::symmetry::affine::CanonicalMap;
 use super::error::PolicyError;
 use super::features::Normalizer;
 use super::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};

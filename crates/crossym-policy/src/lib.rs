@@ -51,7 +51,7 @@ pub mod trajectory;
 
 pub use activation::{tanh, Activation};
 pub use any::{AnyPolicy, AnyWorkspace};
-pub use canonical::{CanonicalMap, TaskFeatureSpec, TaskFeatureWorkspace, TaskFeatures};
+pub use canonical::{TaskFeatureSpec, TaskFeatureWorkspace, TaskFeatures};
 pub use domain::{ConditionDomain, DomainViolation};
 pub use equivariant::{EquivariantPolicy, EquivariantWorkspace};
 pub use error::{GridError, PolicyError, PolicyFitError};

@@ -33,7 +33,7 @@
 //! `m`-input network (an ensemble's block-diagonal hidden layers run packed, see
 //! [`super::MlpInference`]), and allocates nothing.
 
-use super::canonical::CanonicalMap;
+use crossym_math::symmetry::affine::CanonicalMap;
 use super::error::PolicyFitError;
 use super::mlp::{Policy, PolicyWorkspace};
 use crate::trajectory::JointTrajectory;

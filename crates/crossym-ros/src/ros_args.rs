@@ -38,7 +38,7 @@ use ros2_client::ParameterValue;
 use saphyr_parser::{Event, Parser, ScalarStyle, StrInput};
 
 use crate::dds::expand_topic;
-use crate::log::Severity;
+use crossym_control::Severity;
 use crate::node::{apply_start_value, check_start_parameter, StartParamRefusal};
 
 /// The argument that starts a block of ROS arguments.

@@ -17,7 +17,7 @@
 use serde::{Deserialize, Serialize};
 
 use crossym_math::kinematics::{Kinematics, KinematicsWorkspace};
-use crossym_math::symmetry::check::BuiltSymmetry;
+use crossym_math::symmetry::built::BuiltSymmetry;
 use crossym_math::symmetry::compose::Condition;
 use crossym_math::symmetry::finite::SignedPermutation;
 use crossym_math::symmetry::parts::{composition_parts, CompositionParts};

@@ -85,7 +85,7 @@ impl ConditionedPolicy for crossym_policy::EquivariantPolicy {
     }
 }
 
-pub use crossym_policy::{AnyPolicy, AnyWorkspace};
+use crossym_policy::{AnyPolicy, AnyWorkspace};
 
 impl ConditionedPolicy for AnyPolicy {
     type Workspace = AnyWorkspace;

@@ -38,7 +38,13 @@ pub use pinv::{
 pub use robot::{Kinematics, KinematicsSettings, KinematicsWorkspace};
 pub use tree::{LinkTree, LinkTreeWorkspace, TreeLink};
 
-/// The vendor RB-Y1 URDF (`robots/rby1a/`, shipped), or `None` with a printed reason
+/// The tests' skips (`SKIP: why`; a failure under `CROSSYM_NO_SKIP`, recorded in
+/// `CROSSYM_SKIP_LOG`): the one implementation of the repository's tests.
+#[cfg(test)]
+#[path = "../../../../tests/support/skip.rs"]
+mod skip;
+
+/// The vendor RB-Y1 URDF (`robots/rby1a/`, shipped), or `None` after a skip
 /// (unit tests only; integration tests have their own fixture).
 #[cfg(test)]
 pub(crate) fn test_rby1_urdf() -> Option<std::path::PathBuf> {
@@ -46,10 +52,10 @@ pub(crate) fn test_rby1_urdf() -> Option<std::path::PathBuf> {
     if p.exists() {
         Some(p)
     } else {
-        eprintln!(
-            "SKIP: {} absent (shipped in robots/rby1a/: a partial checkout?)",
+        skip::skip(format!(
+            "{} absent (shipped in robots/rby1a/: a partial checkout?)",
             p.display()
-        );
+        ));
         None
     }
 }

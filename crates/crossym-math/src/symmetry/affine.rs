@@ -14,7 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::kinematics::Kinematics;
-use crate::symmetry::check::BuiltSymmetry;
+use crate::symmetry::built::BuiltSymmetry;
 use crate::symmetry::compose::Condition;
 use crate::symmetry::field::VectorField;
 use crate::symmetry::finite::{PermutationError, SignedPermutation};

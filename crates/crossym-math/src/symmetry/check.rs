@@ -30,38 +30,8 @@ use super::transfer::lift::{bracket_condition, periodicity_drift, LiftedAction, 
 use super::transfer::morpho::{
     derive_body_symmetries, derive_morphological, BodySettings, MorphoSettings,
 };
+use super::built::BuiltSymmetry;
 use crate::kinematics::{Kinematics, PinvStatus};
-
-/// A symmetry built from configuration, in the space where it is composed.
-pub enum BuiltSymmetry {
-    /// A finite group acting on `Q` by `rho_q`, descended to `X` as `rho_x`.
-    Finite {
-        /// Name.
-        name: String,
-        /// Action on `Q`.
-        rho_q: SignedPermutation,
-        /// Descended action on `X` (when it descends to a signed permutation).
-        rho_x: Option<SignedPermutation>,
-    },
-    /// A Lie group acting on `X`, lifted to `Q`.
-    Lie {
-        /// Name.
-        name: String,
-        /// The task-space action (affine isometry/scaling or task-induced flow).
-        action: Box<dyn TaskGroupAction>,
-        /// Which affine group it is (`None` for task-induced ones): picks test elements.
-        affine: Option<LieGroupSpec>,
-    },
-}
-
-impl BuiltSymmetry {
-    /// Name from configuration.
-    pub fn name(&self) -> &str {
-        match self {
-            Self::Finite { name, .. } | Self::Lie { name, .. } => name,
-        }
-    }
-}
 
 /// One row of the symmetry table.
 #[derive(Debug, Clone, PartialEq)]

@@ -12,6 +12,7 @@
 //! - [`spec`]: symmetry configuration; [`check`]: the numerical report of `crossym check`.
 
 pub mod affine;
+pub mod built;
 pub mod check;
 pub mod compose;
 pub mod field;

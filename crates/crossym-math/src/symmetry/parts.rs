@@ -2,7 +2,7 @@
 //! symmetry `M` on `Q`, an SO(2) `R` and an optional scaling `S` acting on `X`, picked by
 //! name from the built symmetries. A task without scaling (grasping a pan) names `[M, R]`.
 
-use super::check::BuiltSymmetry;
+use super::built::BuiltSymmetry;
 use super::finite::SignedPermutation;
 use super::lie::{LieGroupSpec, TaskGroupAction};
 

@@ -34,7 +34,7 @@ pub struct PolicyMeta {
     /// ([`crate::TaskHeadPolicy`]): the group's action on `X` (this network is `h`, over
     /// the task coordinates); `None` otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub task_head: Option<crate::CanonicalMap>,
+    pub task_head: Option<crossym_math::symmetry::affine::CanonicalMap>,
 }
 
 impl PolicyMeta {

@@ -16,8 +16,9 @@ use super::lifecycle::{
 use super::params::Operator;
 use super::services::{Services, SetBoolResponse, TriggerResponse};
 use crate::dds;
-use crate::log::{NodeLog, Severity, StatusWatch};
+use crate::log::{NodeLog, StatusWatch};
 use crossym_control::node::{InputGate, OperatorRequest};
+use crossym_control::Severity;
 
 /// The I/O thread's state: the log and what it needs to explain an event.
 pub(super) struct IoSide {

@@ -41,7 +41,7 @@ use crate::kinematics::{Kinematics, KinematicsWorkspace, PinvStatus};
 use crate::symmetry::affine::{
     max_diff, CanonicalMap, OneParamAction, OneParamKind, StoredPermutation,
 };
-use crate::symmetry::check::BuiltSymmetry;
+use crate::symmetry::built::BuiltSymmetry;
 use crate::symmetry::compose::Condition;
 use crate::symmetry::field::VectorField;
 use crate::symmetry::finite::SignedPermutation;
