@@ -9,9 +9,9 @@ use std::path::PathBuf;
 use clap::builder::{EnumValueParser, PossibleValue, TypedValueParser};
 use clap::{Args, ValueEnum};
 use crossym::config::Config;
+use crossym::control::Severity;
 use crossym::control::{OutputMode, Trigger};
 use crossym::pipeline::Splits;
-use crossym::control::Severity;
 use crossym::setup::NodeOverrides;
 use crossym::sim::physics::Plant;
 

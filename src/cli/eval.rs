@@ -6,8 +6,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use crossym::config::Config;
-use crossym::policy::AnyPolicy;
 use crossym::pipeline::Splits;
+use crossym::policy::AnyPolicy;
 
 use super::common::pipeline;
 

@@ -21,8 +21,8 @@ use crate::policy::JointTrajectory;
 #[cfg(feature = "teach")]
 use crate::policy::PolicyMeta;
 use crate::policy::{AnyPolicy, Policy, TaskFeatures, TrainConfig};
-use crate::symmetry::affine::CanonicalMap;
 use crate::policy::{GroupGrid, SubGroup};
+use crate::symmetry::affine::CanonicalMap;
 use crate::symmetry::built::BuiltSymmetry;
 use crate::symmetry::compose::Condition;
 use crate::symmetry::transfer::composed::{ComposedSpec, LiftIntegrator};

@@ -32,7 +32,7 @@ use crossym_math::symmetry::built::BuiltSymmetry;
 use crossym_math::symmetry::compose::Condition;
 
 use crossym_math::symmetry::affine::max_diff;
-use crossym_math::symmetry::affine::{CanonicalMap, OneParamAction, OneParamKind, StoredPermutation};
+use crossym_math::symmetry::affine::CanonicalMap;
 
 /// One chain of the policy's FK: where it reads `q`, and its factors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

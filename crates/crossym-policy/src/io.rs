@@ -23,11 +23,11 @@ use safetensors::{Dtype, SafeTensors};
 use serde::{Deserialize, Serialize};
 
 use super::canonical::{TaskFeatureSpec, TaskFeatures};
-use crossym_math::symmetry::affine::CanonicalMap;
 use super::error::PolicyError;
 use super::features::Normalizer;
 use super::mlp::{MlpInference, MlpSpec, Policy, PolicyMeta};
 use super::train_config::TrainConfig;
+use crossym_math::symmetry::affine::CanonicalMap;
 use crossym_math::symmetry::transfer::composed::ComposedSpec;
 
 /// Format tag written in the sidecar's `format` field.

@@ -33,7 +33,6 @@
 //! `m`-input network (an ensemble's block-diagonal hidden layers run packed, see
 //! [`super::MlpInference`]), and allocates nothing.
 
-use crossym_math::symmetry::affine::CanonicalMap;
 use super::error::PolicyFitError;
 use super::mlp::{Policy, PolicyWorkspace};
 use crate::trajectory::JointTrajectory;
@@ -41,6 +40,7 @@ use crossym_math::kinematics::{
     lift_with_secondary, Kinematics, KinematicsWorkspace, NullSpaceTerm, PinvStatus,
     SecondaryWorkspace,
 };
+use crossym_math::symmetry::affine::CanonicalMap;
 use crossym_math::symmetry::compose::Condition;
 use crossym_math::symmetry::transfer::composed::{ComposedError, ConditionProblem};
 

@@ -38,8 +38,8 @@ use ros2_client::ParameterValue;
 use saphyr_parser::{Event, Parser, ScalarStyle, StrInput};
 
 use crate::dds::expand_topic;
-use crossym_control::Severity;
 use crate::node::{apply_start_value, check_start_parameter, StartParamRefusal};
+use crossym_control::Severity;
 
 /// The argument that starts a block of ROS arguments.
 pub const ROS_ARGS_FLAG: &str = "--ros-args";

@@ -18,6 +18,7 @@ use nalgebra::Vector3;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
+use super::built::BuiltSymmetry;
 use super::compose::{self, ComposeTolerance, Composition};
 use super::field::{VectorField, DEFAULT_FD_STEP};
 use super::finite::SignedPermutation;
@@ -30,7 +31,6 @@ use super::transfer::lift::{bracket_condition, periodicity_drift, LiftedAction, 
 use super::transfer::morpho::{
     derive_body_symmetries, derive_morphological, BodySettings, MorphoSettings,
 };
-use super::built::BuiltSymmetry;
 use crate::kinematics::{Kinematics, PinvStatus};
 
 /// One row of the symmetry table.

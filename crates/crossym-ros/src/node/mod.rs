@@ -45,8 +45,8 @@ use super::dds::{self, DdsError, DdsSettings};
 use super::event_loop::LoopThread;
 use super::idle_poll::IdlePoll;
 use super::log::{NodeLog, StatusWatch};
-use crossym_control::Severity;
 use crossym_control::node::{InputGate, NodeCore, OutputMode};
+use crossym_control::Severity;
 use crossym_io::bag::BagError;
 use crossym_io::msg;
 
