@@ -19,6 +19,9 @@
 
 #![allow(clippy::needless_range_loop)] // numeric loops over several arrays
 
+#[path = "../tests/support/skip.rs"]
+mod skip;
+
 use std::collections::HashMap;
 use std::hint::black_box;
 use std::path::Path;
@@ -133,7 +136,7 @@ fn k_eval(
 impl Rby1 {
     fn load() -> Option<Self> {
         if !Path::new(RBY1_URDF).exists() {
-            println!("SKIP RB-Y1 groups: {RBY1_URDF} is absent");
+            skip::skip(format!("RB-Y1 groups: {RBY1_URDF} is absent"));
             return None;
         }
         let model = RobotModel::from_urdf_file(RBY1_URDF).expect("RB-Y1 URDF loads");
@@ -388,7 +391,7 @@ struct Planar {
 impl Planar {
     fn load() -> Option<Self> {
         if !Path::new(PLANAR_URDF).exists() {
-            println!("SKIP planar group: {PLANAR_URDF} is absent");
+            skip::skip(format!("planar group: {PLANAR_URDF} is absent"));
             return None;
         }
         let model = RobotModel::from_urdf_file(PLANAR_URDF).expect("planar URDF loads");

@@ -7,12 +7,12 @@
 //!   output leaves the bounds, so every tick runs the QP) and with the shipped RB-Y1
 //!   letter policy (`rby1-letters`, around the first letter's start); `*-no-xt` ticks run a
 //!   synthetic policy of the same widths without task features, the reference for what `x̃`
-//!   costs; `*-eq-*` ticks run the shipped policy canonicalised, `dΦ_g π₀(Φ_g⁻¹ q)` (issue
-//!   18), under the off-grid condition θ = 17°, λ = 0.73, σ = −1, flows by adaptive
+//!   costs; `*-eq-*` ticks run the shipped policy canonicalised, `dΦ_g π₀(Φ_g⁻¹ q)`,
+//!   under the off-grid condition θ = 17°, λ = 0.73, σ = −1, flows by adaptive
 //!   Dormand–Prince or fixed-step RK4 (`CROSSYM_TICK_ONLY=eq` runs only those);
-//!   `planar_8dof-head` runs the shipped task-space head `J⁺ Dg h(g⁻¹ f(q))` (issue 17)
+//!   `planar_8dof-head` runs the shipped task-space head `J⁺ Dg h(g⁻¹ f(q))`
 //!   under the same off-grid condition, `rby1-letters_14dof-head` RB-Y1's with the plain
-//!   lift and `-head-ns` with its config's null-space term `(I − J⁺J) v₀(q)` (issue 37).
+//!   lift and `-head-ns` with its config's null-space term `(I − J⁺J) v₀(q)`.
 //!   A second pass times 20 000 single ticks and prints median and p99, and how many of
 //!   them the safety QP filtered (Clarabel dominates such a tick).
 //! - `latency`: the real node (`ros::node::run`, trigger = joint_states) in this process, a
@@ -28,6 +28,9 @@
 //!   as `cyclictest` does. No round trip can beat the wake-ups it is made of.
 //!
 //! Run: `tools/netns-run cargo bench --bench node`.
+
+#[path = "../tests/support/skip.rs"]
+mod skip;
 
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -70,9 +73,9 @@ enum Kind {
     /// A canonicalised policy `dΦ_g π₀(Φ_g⁻¹ q)` under an off-grid condition, its flows
     /// integrated by the given integrator.
     Canonicalised(LiftIntegrator),
-    /// The shipped task-space head `J⁺ Dg h(g⁻¹ f(q))` (issue 17) under the off-grid
+    /// The shipped task-space head `J⁺ Dg h(g⁻¹ f(q))` under the off-grid
     /// condition; with the config's `[redundancy]` null-space term `(I − J⁺J) v₀(q)`
-    /// (issue 37) or the plain lift.
+    /// or the plain lift.
     TaskHead { null_space: bool },
 }
 
@@ -98,7 +101,7 @@ fn setup(robot: &str, kind: Kind) -> Option<(NodeCore, Vec<Vec<f64>>)> {
         _ => ("rby1.toml", true, ""),
     };
     if robot != "planar" && !root().join("robots/rby1a/model.urdf").exists() {
-        eprintln!("SKIP {robot}: robots/rby1a/model.urdf absent");
+        skip::skip(format!("{robot}: robots/rby1a/model.urdf absent"));
         return None;
     }
     let cfg = Config::from_file(root().join("config").join(cfg_name)).unwrap();
@@ -302,7 +305,7 @@ fn bench_latency(_c: &mut Criterion) {
     let ctx = match settings.context() {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("SKIP latency: {e}");
+            skip::skip(format!("latency: {e}"));
             stop.store(true, Ordering::Release);
             let _ = node.join();
             return;

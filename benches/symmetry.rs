@@ -4,6 +4,9 @@
 //! `example-robot-data`, skipped when absent) against the two-chain derivation on RB-Y1.
 //! Run: `cargo bench --bench symmetry`.
 
+#[path = "../tests/support/skip.rs"]
+mod skip;
+
 use std::hint::black_box;
 use std::path::PathBuf;
 
@@ -96,7 +99,7 @@ fn bench_lift(c: &mut Criterion) {
             })
         });
     } else {
-        eprintln!("SKIP rby1: robots/rby1a/model.urdf absent");
+        skip::skip("rby1: robots/rby1a/model.urdf absent");
     }
     g.finish();
     let mut g = c.benchmark_group("check");

@@ -41,15 +41,34 @@ pub fn example_robots() -> Option<PathBuf> {
     let dir = match std::env::var_os("CROSSYM_EXAMPLE_ROBOTS") {
         Some(d) => PathBuf::from(d),
         None => {
-            let out = Command::new(std::env::var("PYTHON").unwrap_or("python3".into()))
+            let python = std::env::var("PYTHON").unwrap_or("python3".into());
+            let purelib = Command::new(&python)
                 .args([
                     "-c",
                     "import sysconfig; print(sysconfig.get_paths()['purelib'])",
                 ])
-                .output()
-                .ok()?;
-            PathBuf::from(String::from_utf8_lossy(&out.stdout).trim())
-                .join("cmeel.prefix/share/example-robot-data/robots")
+                .output();
+            match purelib {
+                Ok(out) if out.status.success() => {
+                    PathBuf::from(String::from_utf8_lossy(&out.stdout).trim())
+                        .join("cmeel.prefix/share/example-robot-data/robots")
+                }
+                failed => {
+                    let why = match failed {
+                        Ok(out) => format!(
+                            "exited with {}: {}",
+                            out.status,
+                            String::from_utf8_lossy(&out.stderr).trim()
+                        ),
+                        Err(e) => format!("does not start: {e}"),
+                    };
+                    crate::skip::skip(format!(
+                        "example-robot-data: `{python}` (PYTHON) {why} (install python3, then \
+                         `bash tests/robots/install.sh`)"
+                    ));
+                    return None;
+                }
+            }
         }
     };
     if dir.is_dir() {
