@@ -1,4 +1,4 @@
-//! Import benchmark (issue 19): 10 rosbag2 recordings of 60 s at 500 Hz of RB-Y1's full
+//! Import benchmark: 10 rosbag2 recordings of 60 s at 500 Hz of RB-Y1's full
 //! joint list (300 000 `sensor_msgs/msg/JointState` messages) into demonstrations, with the
 //! read / resample / differentiate split, for both storage formats (MCAP and SQLite3).
 //!
@@ -25,7 +25,7 @@
 //!
 //! After criterion, a summary per storage (median of 3 plain passes) prints messages,
 //! seconds, the split and messages per second. The vendor URDF is needed at
-//! `robots/rby1a/model.urdf` (shipped); without it the benchmark prints why and does nothing.
+//! `robots/rby1a/model.urdf` (shipped); without it the benchmark fails and says why.
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -384,15 +384,15 @@ fn main() {
     // `cargo bench` passes `--bench`; without it (e.g. `cargo test --benches`) criterion
     // runs each function once as a smoke test, on 2 recordings of 4 s.
     let bench_mode = std::env::args().any(|a| a == "--bench");
+    // The vendor URDF is shipped (robots/rby1a/): without it the checkout is broken, and a
+    // benchmark that measured nothing must not pass.
     let urdf = Path::new(RBY1_URDF);
-    if !urdf.exists() {
-        println!(
-            "import benchmark skipped: the RB-Y1 vendor URDF is not at {} (shipped in the \
-             repository: a partial checkout?)",
-            urdf.display()
-        );
-        return;
-    }
+    assert!(
+        urdf.exists(),
+        "import benchmark: the RB-Y1 vendor URDF is not at {} (shipped in the repository \
+         under robots/rby1a/: restore it, e.g. `git checkout HEAD -- robots/rby1a`)",
+        urdf.display()
+    );
     let spec = urdf_joints(urdf).expect("the RB-Y1 URDF parses");
     let config = Config::from_file(RBY1_CONFIG).expect("config/rby1.toml loads");
     let robot = config.load_robot().expect("the RB-Y1 robot loads");
