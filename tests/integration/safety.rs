@@ -222,7 +222,8 @@ fn closed_loop_with_latency_and_state_gaps_never_crosses_a_limit() {
         );
     }
     // The same loops on a filter that bounds positions as if every state were measured now
-    // with one period of latency (the node before issue 16) cross the limits.
+    // with one period of latency (the node's rule before it counted state age and commands in
+    // flight) cross the limits.
     let crossed = cases
         .iter()
         .filter(|(start, toward, lat, fault)| {
@@ -362,6 +363,17 @@ fn short_fault_campaign_finds_no_violation_in_any_output_mode() {
         ..Default::default()
     };
     let report = run_campaign(&geometries, &s, ExactBounds).unwrap();
+    // Every output mode the node has, each run: an empty or partial report checks nothing.
+    let ran: Vec<OutputMode> = report.modes.iter().map(|(m, _)| *m).collect();
+    assert_eq!(
+        ran,
+        [
+            OutputMode::Velocity,
+            OutputMode::Position,
+            OutputMode::Trajectory
+        ],
+        "the campaign did not run the three output modes"
+    );
     for (mode, t) in &report.modes {
         assert_eq!(t.episodes, 300);
         assert!(t.ticks >= 300 * 250, "{mode:?}: {} ticks", t.ticks);
@@ -393,9 +405,14 @@ fn the_fault_campaign_catches_a_broken_filter() {
             episodes: 40,
             seed: 7,
             duration_s: 2.0,
-            modes,
+            modes: modes.clone(),
         };
         let report = run_campaign(&geometries, &s, defect).unwrap();
+        let ran: Vec<OutputMode> = report.modes.iter().map(|(m, _)| *m).collect();
+        assert_eq!(
+            ran, modes,
+            "{defect:?}: the campaign did not run the modes asked for"
+        );
         for (mode, t) in &report.modes {
             // Without a position bound, position commands are still clamped into the
             // limits (defence in depth): the clamp then shows as acceleration jumps.
