@@ -15,17 +15,34 @@ use ros2_client::{Name, ServiceTypeName};
 
 use crossym::ros::dds::{self, DdsSettings};
 
-/// Options of `crossym param`.
+/// Options of `crossym param`. The verb, the name and the value are separate positional
+/// arguments, so options may stand anywhere among them (`param set --config C NAME VALUE`,
+/// as `ros2 param set` users type them).
 #[derive(Debug, clap::Args)]
 pub struct ParamArgs {
-    /// `get NAME` or `set NAME VALUE` (VALUE: a number, true/false, [a, b, c], or text).
-    #[arg(num_args = 2..=3, value_names = ["get|set", "NAME", "VALUE"])]
-    pub words: Vec<String>,
+    /// `get` or `set`.
+    #[arg(value_enum)]
+    pub verb: ParamVerb,
+    /// The parameter's name.
+    #[arg(id = "parameter", value_name = "NAME")]
+    pub name: String,
+    /// The value to set (`set` only): a number, true/false, [a, b, c], or text.
+    #[arg(allow_negative_numbers = true)]
+    pub value: Option<String>,
     #[command(flatten)]
     pub node: super::common::NodeTarget,
     /// Give up (exit 1) when the node does not answer within this time (s).
     #[arg(long, default_value_t = 5.0)]
     pub timeout_s: f64,
+}
+
+/// What `crossym param` does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ParamVerb {
+    /// Print the parameter's value.
+    Get,
+    /// Set the parameter to VALUE.
+    Set,
 }
 
 /// The parameter value a command-line word asks for: `true`/`false`, a number (always a
@@ -112,10 +129,10 @@ pub fn run(a: &ParamArgs) -> anyhow::Result<ExitCode> {
         "--timeout-s {} must be positive",
         a.timeout_s
     );
-    let (verb, name) = (a.words[0].as_str(), a.words[1].clone());
-    let value = match (verb, a.words.get(2)) {
-        ("get", None) => None,
-        ("set", Some(v)) => Some(parse_value(v)),
+    let name = a.name.clone();
+    let value = match (a.verb, &a.value) {
+        (ParamVerb::Get, None) => None,
+        (ParamVerb::Set, Some(v)) => Some(parse_value(v)),
         _ => anyhow::bail!("usage: crossym param get NAME | crossym param set NAME VALUE"),
     };
     let n = a.node.node_config()?;
@@ -192,6 +209,88 @@ pub fn run(a: &ParamArgs) -> anyhow::Result<ExitCode> {
                 }
                 None => anyhow::bail!("{target}: empty answer"),
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::ParamVerb;
+    use crate::cli::{Cli, Command};
+
+    /// `crossym ARGS…` parsed as the binary parses it: the `param` arguments.
+    fn param(args: &[&str]) -> Result<super::ParamArgs, clap::Error> {
+        let cli = Cli::try_parse_from(std::iter::once("crossym").chain(args.iter().copied()))?;
+        match cli.command {
+            Command::Param(a) => Ok(a),
+            other => panic!("not `param`: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn options_may_stand_anywhere_among_the_words() {
+        let orders: [&[&str]; 4] = [
+            &[
+                "param",
+                "set",
+                "--config",
+                "c.toml",
+                "velocity_scale",
+                "0.5",
+            ],
+            &[
+                "param",
+                "set",
+                "velocity_scale",
+                "0.5",
+                "--config",
+                "c.toml",
+            ],
+            &[
+                "param",
+                "--config",
+                "c.toml",
+                "set",
+                "velocity_scale",
+                "0.5",
+            ],
+            &[
+                "param",
+                "set",
+                "velocity_scale",
+                "--config",
+                "c.toml",
+                "0.5",
+            ],
+        ];
+        for argv in orders {
+            let a = param(argv).unwrap_or_else(|e| panic!("{argv:?}: {e}"));
+            assert_eq!(a.verb, ParamVerb::Set, "{argv:?}");
+            assert_eq!(a.name, "velocity_scale", "{argv:?}");
+            assert_eq!(a.value.as_deref(), Some("0.5"), "{argv:?}");
+            assert_eq!(a.node.config.to_str(), Some("c.toml"), "{argv:?}");
+        }
+        let a = param(&["param", "get", "--timeout-s", "2", "velocity_scale"]).unwrap();
+        assert_eq!(
+            (a.verb, a.name.as_str(), a.value),
+            (ParamVerb::Get, "velocity_scale", None)
+        );
+        assert_eq!(a.timeout_s, 2.0);
+    }
+
+    #[test]
+    fn values_may_be_negative_and_words_are_checked() {
+        let a = param(&["param", "set", "--config", "c.toml", "offset", "-0.5"]).unwrap();
+        assert_eq!(a.value.as_deref(), Some("-0.5"));
+        // An unknown verb, a missing name, a fourth word: refused by the parser.
+        for argv in [
+            &["param", "put", "x", "1"][..],
+            &["param", "get"],
+            &["param", "set", "x", "1", "2"],
+        ] {
+            assert!(param(argv).is_err(), "{argv:?} parsed");
         }
     }
 }
