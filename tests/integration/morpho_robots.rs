@@ -409,7 +409,7 @@ fn built_m(
     built
         .into_iter()
         .find_map(|b| match b {
-            crossym::symmetry::check::BuiltSymmetry::Finite { name, rho_q, rho_x }
+            crossym::symmetry::built::BuiltSymmetry::Finite { name, rho_q, rho_x }
                 if name == "M" =>
             {
                 Some((rho_q, rho_x))

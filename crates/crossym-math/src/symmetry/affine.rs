@@ -598,3 +598,93 @@ impl CanonicalMap {
         }
     }
 }
+
+#[cfg(test)]
+mod one_param_tests {
+    use super::*;
+
+    fn action(h: &dyn Fn(&[f64], &mut [f64]) -> bool) -> Result<OneParamAction, String> {
+        OneParamAction::from_generator("g", 2, h).map_err(|e| e.to_string())
+    }
+
+    fn apply(a: &OneParamAction, t: f64, x: [f64; 2]) -> [f64; 2] {
+        let (mut x, mut h, mut h2) = (x, [0.0; 2], [0.0; 2]);
+        a.apply(t, &mut x, &mut h, &mut h2);
+        x
+    }
+
+    #[test]
+    fn closed_forms_match_the_groups() {
+        let c = [0.3, -1.2];
+        // Rotation about c: h(x) = J (x − c).
+        let rot = action(&|x, o| {
+            o[0] = -(x[1] - c[1]);
+            o[1] = x[0] - c[0];
+            true
+        })
+        .unwrap();
+        assert_eq!(rot.kind, OneParamKind::Rotation);
+        let (t, p) = (0.7f64, [2.0, 0.5]);
+        let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+        let want = [
+            c[0] + t.cos() * dx - t.sin() * dy,
+            c[1] + t.sin() * dx + t.cos() * dy,
+        ];
+        let got = apply(&rot, t, p);
+        assert!((got[0] - want[0]).abs() < 1e-14 && (got[1] - want[1]).abs() < 1e-14);
+        // Scaling about c: h(x) = x − c, so Φ(ln λ, x) = c + λ (x − c).
+        let sc = action(&|x, o| {
+            o[0] = x[0] - c[0];
+            o[1] = x[1] - c[1];
+            true
+        })
+        .unwrap();
+        assert_eq!(sc.kind, OneParamKind::Scaling);
+        let got = apply(&sc, 0.6f64.ln(), p);
+        assert!((got[0] - (c[0] + 0.6 * dx)).abs() < 1e-14);
+        assert!((got[1] - (c[1] + 0.6 * dy)).abs() < 1e-14);
+        // A translation and a shear (both H² = 0): exp(tH) = I + tH exactly.
+        let tr = action(&|_, o| {
+            o[0] = 1.0;
+            o[1] = -2.0;
+            true
+        })
+        .unwrap();
+        assert_eq!(tr.kind, OneParamKind::Translation);
+        assert_eq!(apply(&tr, 0.5, p), [2.5, -0.5]);
+        let shear = action(&|x, o| {
+            o[0] = x[1];
+            o[1] = 0.0;
+            true
+        })
+        .unwrap();
+        assert_eq!(shear.kind, OneParamKind::Translation);
+        assert_eq!(apply(&shear, 2.0, p), [3.0, 0.5]);
+    }
+
+    #[test]
+    fn generators_without_a_closed_form_are_refused() {
+        let e = action(&|x, o| {
+            o[0] = x[0] * x[0];
+            o[1] = 0.0;
+            true
+        })
+        .unwrap_err();
+        assert!(e.contains("not an affine action"), "{e}");
+        let e = action(&|x, o| {
+            o[0] = x[0];
+            o[1] = 2.0 * x[1];
+            true
+        })
+        .unwrap_err();
+        assert!(e.contains("none of"), "{e}");
+        let e = action(&|_, o| {
+            o.fill(0.0);
+            true
+        })
+        .unwrap_err();
+        assert!(e.contains("zero"), "{e}");
+        let e = action(&|_, _| false).unwrap_err();
+        assert!(e.contains("undefined"), "{e}");
+    }
+}
