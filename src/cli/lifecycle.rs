@@ -29,9 +29,9 @@ pub struct LifecycleArgs {
 /// What `crossym lifecycle` does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum LifecycleVerb {
-    /// Print the node's lifecycle state.
+    // Print the node's lifecycle state.
     Get,
-    /// Request TRANSITION.
+    // Request TRANSITION.
     Set,
 }
 

@@ -39,9 +39,9 @@ pub struct ParamArgs {
 /// What `crossym param` does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ParamVerb {
-    /// Print the parameter's value.
+    // Print the parameter's value.
     Get,
-    /// Set the parameter to VALUE.
+    // Set the parameter to VALUE.
     Set,
 }
 
