@@ -223,6 +223,7 @@ class Rby1Sim:
         self.fault_started_wall_s: Optional[float] = None
         self.fault_kind: Optional[str] = None
         self.fault_joint: Optional[str] = None
+        self.released_s: Optional[float] = None  # simulated time of the last lock/hold release
 
         # bookkeeping
         self.violation_count = 0
@@ -232,6 +233,8 @@ class Rby1Sim:
         self.max_abs_velocity = np.zeros(n)
         self.min_margin = np.full(n, inf)
         self.torque_time = np.zeros(n)
+        self.torque_run = np.zeros(n)  # current continuous time at the torque limit
+        self.torque_run_after_release = np.zeros(n)  # its longest since a release
         self.hist = ErrorHistogram(n)
         self.resets = 0
         self._tmp = np.zeros(n)
@@ -291,8 +294,22 @@ class Rby1Sim:
         self._fault("freeze", joint, wall_s)
 
     def start_hold(self, wall_s: float) -> None:
+        # The hardware holds the measured position of this moment at once (its own stop,
+        # not the streaming layer's acceleration limit): the streaming target jumps there.
         self.hold_q = self.d.qpos[self.qadr].copy()
+        self.follower.reset(self.hold_q)
         self._fault("hold", None, wall_s)
+
+    def end_freeze(self) -> None:
+        """The lock releases: the joint is free again (its actuator pulls it to its target)."""
+        self.freeze = None
+        self.released_s = self.sim_time
+
+    def end_hold(self) -> None:
+        """The collision hold releases: the streaming layer resumes from the held position at
+        rest toward the controller's reference."""
+        self.hold_q = None
+        self.released_s = self.sim_time
 
     def _fault(self, kind, joint, wall_s):
         if self.fault_started_s is None:
@@ -355,7 +372,11 @@ class Rby1Sim:
         self.hist.add(tmp)
         if self.force_limited:
             af = np.abs(d.actuator_force[self.act_idx])
-            self.torque_time += (af >= self.force_thr) * self.dt
+            at = af >= self.force_thr
+            self.torque_time += at * self.dt
+            self.torque_run = np.where(at, self.torque_run + self.dt, 0.0)
+            if self.released_s is not None:
+                np.maximum(self.torque_run_after_release, self.torque_run, out=self.torque_run_after_release)
 
     def _violation(self, k, kind, value, bound):
         self.violation_count += 1
@@ -391,6 +412,9 @@ class Rby1Sim:
             "max_abs_velocity": {self.joints[k]: float(self.max_abs_velocity[k]) for k in range(n)},
             "tracking_error": te,
             "torque_limit_time_s": {self.joints[k]: round(float(self.torque_time[k]), 6) for k in range(n)},
+            "torque_limit_run_after_release_s": {self.joints[k]: round(float(self.torque_run_after_release[k]), 6)
+                                                 for k in range(n)},
+            "released_s": self.released_s,
             "min_limit_margin": {self.joints[k]: float(self.min_margin[k]) for k in range(n)},
             "fault_started_s": self.fault_started_s,
             "fault_started_wall_s": self.fault_started_wall_s,
@@ -462,7 +486,21 @@ def make_parser() -> argparse.ArgumentParser:
     ap.add_argument("--target-filter-hz", type=float, default=15.0, help="firmware target low-pass (Hz; 0 disables)")
     ap.add_argument("--freeze-joint", help="fault: lock this joint ...")
     ap.add_argument("--freeze-after-s", type=float, help="... from this many wall seconds after start")
+    ap.add_argument("--freeze-s", type=float, help="... released after this many seconds (default: never)")
     ap.add_argument("--hold-after-s", type=float, help="fault: collision hold from this many wall seconds after start")
+    ap.add_argument("--hold-s", type=float, help="... released after this many seconds (default: never)")
+    ap.add_argument("--driver-restart-after-s", type=float,
+                    help="fault: the vendor driver restarts at this many wall seconds after start: no joint "
+                         "states and commands dropped for --driver-restart-s, the controller's state reset")
+    ap.add_argument("--driver-restart-s", type=float, default=3.0, help="... for this long (s)")
+    ap.add_argument("--driver-restart-step", type=float, default=0.0,
+                    help="... and the arm found this far (rad, every controlled joint) from where it stopped "
+                         "when the driver is back (moved by hand)")
+    ap.add_argument("--controller-off-after-s", type=float,
+                    help="fault: the trajectory controller is switched off at this many wall seconds after "
+                         "start (its command subscriptions deleted: the publisher loses its match; the hardware "
+                         "holds), on again after --controller-off-s")
+    ap.add_argument("--controller-off-s", type=float, default=2.0, help="... for this long (s)")
     ap.add_argument("--sensor-fault", choices=["frozen", "silent", "nan", "missing"],
                     help="fault of the published joint states while the robot keeps moving: frozen "
                          "(the state stops changing), silent (none published), nan (--sensor-fault-joint's "
@@ -479,6 +517,12 @@ def main(argv=None) -> int:
     args = make_parser().parse_args(argv)
     if (args.freeze_joint is None) != (args.freeze_after_s is None):
         print("rby1_mujoco: --freeze-joint and --freeze-after-s go together", file=sys.stderr)
+        return 2
+    if args.freeze_s is not None and args.freeze_joint is None:
+        print("rby1_mujoco: --freeze-s goes with --freeze-joint", file=sys.stderr)
+        return 2
+    if args.hold_s is not None and args.hold_after_s is None:
+        print("rby1_mujoco: --hold-s goes with --hold-after-s", file=sys.stderr)
         return 2
     if args.sensor_fault_joint is not None and args.sensor_fault not in ("nan", "missing"):
         print("rby1_mujoco: --sensor-fault-joint goes with --sensor-fault nan|missing", file=sys.stderr)
@@ -506,8 +550,10 @@ def main(argv=None) -> int:
 
     dp = DomainParticipant(args.domain)
     js_w = DataWriter(dp, Topic(dp, rt.TOPIC_JOINT_STATES, rt.JointState), qos=rt.QOS_RELIABLE)
-    traj_r = DataReader(dp, Topic(dp, rt.TOPIC_TRAJECTORY, rt.JointTrajectory), qos=rt.QOS_RELIABLE)
-    fwd_r = DataReader(dp, Topic(dp, rt.TOPIC_FORWARD, rt.Float64MultiArray), qos=rt.QOS_RELIABLE)
+    traj_t = Topic(dp, rt.TOPIC_TRAJECTORY, rt.JointTrajectory)
+    fwd_t = Topic(dp, rt.TOPIC_FORWARD, rt.Float64MultiArray)
+    traj_r = DataReader(dp, traj_t, qos=rt.QOS_RELIABLE)
+    fwd_r = DataReader(dp, fwd_t, qos=rt.QOS_RELIABLE)
     reset_r = DataReader(dp, Topic(dp, rt.TOPIC_RESET, rt.Float64MultiArray), qos=rt.QOS_RELIABLE)
 
     period = 1.0 / args.rate_hz
@@ -549,6 +595,10 @@ def main(argv=None) -> int:
     next_iter = t0
     js = rt.JointState(header=rt.Header(stamp=rt.now_stamp(), frame_id=""), name=list(sim.pub_names))
     sensor_fault_started = None
+    # Timed events: (kind, start wall time, end wall time) as they happen (time.time()).
+    events: List[dict] = []
+    outage = None  # driver restart in progress: its event
+    off = None  # controller off: its event
     try:
         while not stop["flag"]:
             now = time.monotonic()
@@ -566,8 +616,57 @@ def main(argv=None) -> int:
             # faults (wall seconds since start)
             if args.freeze_joint is not None and sim.freeze is None and elapsed >= args.freeze_after_s:
                 sim.start_freeze(args.freeze_joint, elapsed)
-            if args.hold_after_s is not None and sim.hold_q is None and elapsed >= args.hold_after_s:
+            if args.hold_after_s is not None and sim.hold_q is None and elapsed >= args.hold_after_s \
+                    and not any(e["kind"] == "hold" for e in events):
                 sim.start_hold(elapsed)
+                events.append({"kind": "hold", "start_wall_s": time.time(), "end_wall_s": None})
+            if args.freeze_joint is not None and sim.freeze is not None \
+                    and not any(e["kind"] == "freeze" for e in events):
+                events.append({"kind": "freeze", "joint": args.freeze_joint, "start_wall_s": time.time(),
+                               "end_wall_s": None})
+            for e in events:
+                if e["end_wall_s"] is not None:
+                    continue
+                if e["kind"] == "hold" and args.hold_s is not None and elapsed >= args.hold_after_s + args.hold_s:
+                    sim.end_hold()
+                    e["end_wall_s"] = time.time()
+                if e["kind"] == "freeze" and args.freeze_s is not None \
+                        and elapsed >= args.freeze_after_s + args.freeze_s:
+                    sim.end_freeze()
+                    e["end_wall_s"] = time.time()
+            if args.driver_restart_after_s is not None and outage is None \
+                    and not any(e["kind"] == "driver_restart" for e in events) \
+                    and elapsed >= args.driver_restart_after_s:
+                # The driver goes down: the controller's state is reset; the hardware holds.
+                q = sim.measured()
+                sim.jtc.reset(q)
+                sim.reference = q.copy()
+                outage = {"kind": "driver_restart", "start_wall_s": time.time(), "end_wall_s": None,
+                          "step_rad": args.driver_restart_step}
+                events.append(outage)
+            if outage is not None and elapsed >= args.driver_restart_after_s + args.driver_restart_s:
+                # Back, with the arm where a hand left it.
+                q = sim.measured() + args.driver_restart_step
+                q = np.clip(q, sim.lower + 0.05, sim.upper - 0.05)
+                sim.reset(q.tolist())
+                sim.released_s = sim.sim_time
+                outage["end_wall_s"] = time.time()
+                outage = None
+            if args.controller_off_after_s is not None and off is None \
+                    and not any(e["kind"] == "controller_off" for e in events) \
+                    and elapsed >= args.controller_off_after_s:
+                traj_r.__del__()
+                fwd_r.__del__()
+                traj_r = fwd_r = None
+                sim.jtc.reset(sim.reference.copy())  # the hardware holds the last reference
+                off = {"kind": "controller_off", "start_wall_s": time.time(), "end_wall_s": None}
+                events.append(off)
+            if off is not None and elapsed >= args.controller_off_after_s + args.controller_off_s:
+                traj_r = DataReader(dp, traj_t, qos=rt.QOS_RELIABLE)
+                fwd_r = DataReader(dp, fwd_t, qos=rt.QOS_RELIABLE)
+                sim.released_s = sim.sim_time
+                off["end_wall_s"] = time.time()
+                off = None
 
             # inputs: resets first, then commands
             t_in = time.perf_counter()
@@ -587,8 +686,8 @@ def main(argv=None) -> int:
                 else:
                     c["resets_invalid"] += 1
                     invalid_reasons["reset: " + why] = invalid_reasons.get("reset: " + why, 0) + 1
-            quiet = (time.monotonic() - last_reset_mono) < RESET_QUIET_S
-            for s in traj_r.take(N=100):
+            quiet = (time.monotonic() - last_reset_mono) < RESET_QUIET_S or outage is not None
+            for s in (traj_r.take(N=100) if traj_r is not None else []):
                 if not isinstance(s, rt.JointTrajectory):
                     continue
                 if quiet:
@@ -605,7 +704,7 @@ def main(argv=None) -> int:
                 else:
                     c["trajectories_invalid"] += 1
                     invalid("trajectory", why)
-            for s in fwd_r.take(N=100):
+            for s in (fwd_r.take(N=100) if fwd_r is not None else []):
                 if not isinstance(s, rt.Float64MultiArray):
                     continue
                 if quiet:
@@ -644,6 +743,11 @@ def main(argv=None) -> int:
                 args.sensor_fault_s is None or elapsed < args.sensor_fault_after_s + args.sensor_fault_s)
             if faulty and sensor_fault_started is None:
                 sensor_fault_started = elapsed
+            if outage is not None:
+                c["joint_states_faulted"] += 1
+                phase["publish"] += time.perf_counter() - t_pub
+                work_ms.append((time.monotonic() - it_start) * 1e3)
+                continue
             if not faulty or args.sensor_fault != "frozen":
                 js.position, js.velocity, js.effort = sim.joint_state_arrays()
             js.header.stamp = rt.now_stamp()
@@ -689,6 +793,8 @@ def main(argv=None) -> int:
             "max_abs_velocity_by_joint": rep["max_abs_velocity"],
             "fault_started_wall_s": rep["fault_started_wall_s"],
             "torque_limit_time_s": rep["torque_limit_time_s"],
+            "torque_limit_run_after_release_s": rep["torque_limit_run_after_release_s"],
+            "events": events,
             "min_limit_margin": rep["min_limit_margin"],
             "late_iterations": c["late_iterations"],
             "started_wall_time_s": started_wall,

@@ -182,6 +182,18 @@ def main() -> int:
                 velocity_scale=1.0 - 0.1 * (k % 2),
                 singularity_condition=2.0 + k,
                 singularity_factor=1.0,
+                period_code=code,
+                period_ticks=10,
+                period_restarts=0,
+                period_held=0,
+                period_locked=0,
+                period_rejected=0,
+                period_stale_ticks=0,
+                period_fallback_ticks=0,
+                held_events=0,
+                locked_events=0,
+                locked_joint='',
+                command_subscribers=1,
             )))
     events.sort(key=lambda e: (e[0], e[1]))
 

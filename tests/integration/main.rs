@@ -25,6 +25,7 @@ mod morpho_robots;
 mod operator;
 mod operator_services;
 mod physics;
+mod physics_faults;
 mod pins;
 // Needs the `teach` feature (training, LeRobot datasets, SQLite3 bags; CI: --all-features).
 #[cfg(feature = "teach")]

@@ -86,6 +86,18 @@ class Status(IdlStruct, typename="crossym_msgs::msg::dds_::Status_"):
     velocity_scale: types.float64 = 1.0
     singularity_condition: types.float64 = 0.0
     singularity_factor: types.float64 = 1.0
+    period_code: types.int8 = 0
+    period_ticks: types.uint32 = 0
+    period_restarts: types.uint32 = 0
+    period_held: types.uint32 = 0
+    period_locked: types.uint32 = 0
+    period_rejected: types.uint32 = 0
+    period_stale_ticks: types.uint32 = 0
+    period_fallback_ticks: types.uint32 = 0
+    held_events: types.uint64 = 0
+    locked_events: types.uint64 = 0
+    locked_joint: str = ""
+    command_subscribers: types.int32 = -1
 
 
 # crossym_msgs/Status constants
@@ -724,7 +736,10 @@ def _cdr_expected_bytes():
                 active_constraints=1, rejected_joint_states=2, rejected_conditions=3, ticks=4, stale_ticks=5,
                 joint_state_age_s=0.25, tick_time_us=1.5, tick_time_max_us=2.5, condition=cond,
                 restarts=9, not_following_ticks=10, tracking_warning_ticks=11, tracking_error=0.125,
-                paused=True, velocity_scale=0.5, singularity_condition=12.5, singularity_factor=0.75)
+                paused=True, velocity_scale=0.5, singularity_condition=12.5, singularity_factor=0.75,
+                period_code=22, period_ticks=10, period_restarts=1, period_held=2, period_locked=3,
+                period_rejected=4, period_stale_ticks=5, period_fallback_ticks=6, held_events=13,
+                locked_events=14, locked_joint="j", command_subscribers=1)
     b = struct.pack("<iI", 5, 6)
     b = s(b, "")
     b += struct.pack("<b", 17)
@@ -737,6 +752,11 @@ def _cdr_expected_bytes():
     b = align(b, 8) + struct.pack("<QQQd", 9, 10, 11, 0.125)
     b += struct.pack("<?", True)
     b = align(b, 8) + struct.pack("<ddd", 0.5, 12.5, 0.75)
+    b += struct.pack("<b", 22)
+    b = align(b, 4) + struct.pack("<IIIIIII", 10, 1, 2, 3, 4, 5, 6)
+    b = align(b, 8) + struct.pack("<QQ", 13, 14)
+    b = s(b, "j")
+    b = align(b, 4) + struct.pack("<i", 1)
     out.append(("Status", st, enc + b))
     return out
 

@@ -482,6 +482,30 @@ pub struct Status {
     pub singularity_condition: f64,
     /// Factor the singularity band applied at the last tick.
     pub singularity_factor: f64,
+    /// Worst code of the ticks since the previous status.
+    pub period_code: i8,
+    /// Ticks since the previous status (count).
+    pub period_ticks: u32,
+    /// Restarts from the measured state since the previous status (count).
+    pub period_restarts: u32,
+    /// Robot-held detections since the previous status (count).
+    pub period_held: u32,
+    /// Locked-joint detections since the previous status (count).
+    pub period_locked: u32,
+    /// Rejected input messages since the previous status (count).
+    pub period_rejected: u32,
+    /// Stale ticks since the previous status (count).
+    pub period_stale_ticks: u32,
+    /// Safety fallbacks since the previous status (count).
+    pub period_fallback_ticks: u32,
+    /// Robot-held detections since start (count).
+    pub held_events: u64,
+    /// Locked-joint detections since start (count).
+    pub locked_events: u64,
+    /// The joint last found locked (empty: none).
+    pub locked_joint: String,
+    /// Subscribers matched on the command topic (−1: not known).
+    pub command_subscribers: i32,
 }
 
 ros_message!(
@@ -510,6 +534,18 @@ ros_message!(
         ("velocity_scale", "float64"),
         ("singularity_condition", "float64"),
         ("singularity_factor", "float64"),
+        ("period_code", "int8"),
+        ("period_ticks", "uint32"),
+        ("period_restarts", "uint32"),
+        ("period_held", "uint32"),
+        ("period_locked", "uint32"),
+        ("period_rejected", "uint32"),
+        ("period_stale_ticks", "uint32"),
+        ("period_fallback_ticks", "uint32"),
+        ("held_events", "uint64"),
+        ("locked_events", "uint64"),
+        ("locked_joint", "string"),
+        ("command_subscribers", "int32"),
     ]
 );
 

@@ -47,6 +47,7 @@ pub fn format_line(severity: Severity, wall_s: f64, node: &str, text: &str) -> S
 #[derive(Debug, Clone)]
 struct Limit {
     kind: &'static str,
+    severity: Severity,
     last: Option<Instant>,
     suppressed: u64,
 }
@@ -132,6 +133,7 @@ impl NodeLog {
             None => {
                 self.limits.push(Limit {
                     kind,
+                    severity,
                     last: None,
                     suppressed: 0,
                 });
@@ -152,6 +154,38 @@ impl NodeLog {
             self.log(severity, &text);
         } else {
             self.log(severity, text);
+        }
+    }
+
+    /// Reports, for each kind whose interval has passed since its last line, how many events
+    /// the rate limit held back meanwhile (called every few ms by the I/O loop): an event is
+    /// never hidden longer than one interval, and the first of a kind is printed at once.
+    pub fn flush_due(&mut self) {
+        self.flush_due_at(Instant::now());
+    }
+
+    /// [`NodeLog::flush_due`] at a given instant (tests drive the clock).
+    pub fn flush_due_at(&mut self, now: Instant) {
+        let interval = self.interval;
+        let due: Vec<(&'static str, Severity, u64)> = self
+            .limits
+            .iter_mut()
+            .filter(|l| {
+                l.suppressed > 0 && l.last.is_some_and(|t| now.duration_since(t) >= interval)
+            })
+            .map(|l| {
+                l.last = Some(now);
+                (l.kind, l.severity, std::mem::take(&mut l.suppressed))
+            })
+            .collect();
+        for (kind, severity, n) in due {
+            self.log(
+                severity,
+                &format!(
+                    "{n} more `{kind}` event(s) within {:.1} s (rate limit)",
+                    interval.as_secs_f64()
+                ),
+            );
         }
     }
 
@@ -177,9 +211,18 @@ impl NodeLog {
 pub struct StatusWatch {
     last: Option<StatusSnapshot>,
     stale: bool,
+    names: Vec<String>,
 }
 
 impl StatusWatch {
+    /// A watch naming the controlled joints `names` (a locked joint is named).
+    pub fn with_names(names: Vec<String>) -> Self {
+        Self {
+            names,
+            ..Self::default()
+        }
+    }
+
     /// Compares `s` with the previous snapshot and logs what changed.
     pub fn observe(&mut self, s: &StatusSnapshot, log: &mut NodeLog) {
         let stale = s.code == StatusCode::StaleJointStates;
@@ -216,6 +259,9 @@ impl StatusWatch {
         }
         self.stale = stale;
         let prev = self.last.unwrap_or(StatusSnapshot {
+            held_events: 0,
+            locked_events: 0,
+            command_subscribers: None,
             fallback_ticks: 0,
             nonfinite_ticks: 0,
             infeasible_ticks: 0,
@@ -224,6 +270,48 @@ impl StatusWatch {
             tracking_warning_ticks: 0,
             ..*s
         });
+        // The controller switched off, and on again.
+        match (prev.command_subscribers, s.command_subscribers) {
+            (Some(a), Some(0)) if a > 0 => log.log(
+                Severity::Error,
+                "the command topic has no subscriber (the controller was switched off): \
+                 braking to a hold",
+            ),
+            (Some(0), Some(n)) if n > 0 && self.last.is_some() => log.log(
+                Severity::Info,
+                &format!(
+                    "the command topic has {n} subscriber(s) again: commands restart from the \
+                     measured state"
+                ),
+            ),
+            _ => {}
+        }
+        if s.held_events > prev.held_events {
+            log.limited(
+                "robot_held",
+                Severity::Error,
+                &format!(
+                    "robot held: every joint stopped while commanded to move ({} in all): \
+                     holding at the measured state, then trying again",
+                    s.held_events
+                ),
+            );
+        }
+        if s.locked_events > prev.locked_events {
+            let joint = s
+                .locked_joint
+                .and_then(|j| self.names.get(j))
+                .map_or("?", String::as_str);
+            log.limited(
+                "joint_locked",
+                Severity::Error,
+                &format!(
+                    "joint `{joint}` does not move while commanded to ({} in all): commands \
+                     restarted from the measured state",
+                    s.locked_events
+                ),
+            );
+        }
         // The robot not following is an error, logged when it begins (and again, at most
         // once a second, while it lasts).
         if s.not_following_ticks > prev.not_following_ticks {
@@ -368,7 +456,7 @@ mod tests {
     fn status_transitions_become_lines() {
         use crossym_math::symmetry::compose::Condition;
         let (mut log, lines) = capture(Severity::Info, Duration::from_secs(1));
-        let mut w = StatusWatch::default();
+        let mut w = StatusWatch::with_names(vec!["a0".into(), "a1".into()]);
         let mut s = StatusSnapshot {
             code: StatusCode::StaleJointStates,
             message: "",
@@ -393,6 +481,13 @@ mod tests {
             velocity_scale: 1.0,
             singularity_condition: 1.0,
             singularity_factor: 1.0,
+            period_code: StatusCode::StaleJointStates,
+            period_ticks: 1,
+            period: Default::default(),
+            held_events: 0,
+            locked_events: 0,
+            locked_joint: None,
+            command_subscribers: None,
         };
         w.observe(&s, &mut log); // no state yet
         w.observe(&s, &mut log); // unchanged: nothing
@@ -451,5 +546,49 @@ mod tests {
             "{}",
             l[5]
         );
+        // A held robot, a locked joint (named), the controller off and on again.
+        s.held_events = 1;
+        w.observe(&s, &mut log);
+        s.locked_events = 1;
+        s.locked_joint = Some(1);
+        w.observe(&s, &mut log);
+        s.command_subscribers = Some(1);
+        w.observe(&s, &mut log);
+        s.command_subscribers = Some(0);
+        w.observe(&s, &mut log);
+        s.command_subscribers = Some(2);
+        w.observe(&s, &mut log);
+        let l = lines.lock().unwrap().clone();
+        assert_eq!(l.len(), 13, "{l:?}");
+        assert!(
+            l[9].contains("[ERROR]") && l[9].contains("robot held"),
+            "{}",
+            l[9]
+        );
+        assert!(l[10].contains("joint `a1` does not move"), "{}", l[10]);
+        assert!(l[11].contains("no subscriber"), "{}", l[11]);
+        assert!(l[12].contains("2 subscriber(s) again"), "{}", l[12]);
+    }
+
+    #[test]
+    fn held_back_events_are_reported_once_their_interval_has_passed() {
+        let (mut log, lines) = capture(Severity::Info, Duration::from_secs(1));
+        let t0 = Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        log.limited_at("restart", Severity::Warn, "restarted", at(0));
+        log.limited_at("held", Severity::Error, "held", at(10)); // another kind: at once
+        log.limited_at("restart", Severity::Warn, "restarted", at(200)); // held back
+        log.flush_due_at(at(500)); // not yet due
+        assert_eq!(lines.lock().unwrap().len(), 2);
+        log.flush_due_at(at(1000));
+        let l = lines.lock().unwrap().clone();
+        assert_eq!(l.len(), 3, "{l:?}");
+        assert!(
+            l[2].contains("[WARN]") && l[2].contains("1 more `restart` event(s) within 1.0 s"),
+            "{}",
+            l[2]
+        );
+        log.flush_due_at(at(3000)); // nothing left
+        assert_eq!(lines.lock().unwrap().len(), 3);
     }
 }

@@ -108,6 +108,8 @@ pub struct NodeConfig {
     pub task_pose: Option<super::task_pose::TaskPoseConfig>,
     /// `[node.singularity]`: the slow-down band before singular postures.
     pub singularity: super::singularity::SingularitySettings,
+    /// `[node.motion]`: held-robot and locked-joint detection (position modes).
+    pub motion: super::motion::MotionSettings,
     /// The policy's velocity is multiplied by this before the safety filter (0 < s ≤ 1;
     /// settable at runtime).
     pub velocity_scale: f64,
@@ -144,6 +146,7 @@ impl Default for NodeConfig {
             trajectory_start_point: true,
             task_pose: None,
             singularity: Default::default(),
+            motion: Default::default(),
             velocity_scale: 1.0,
             ros_distro: None,
             autostart: true,
@@ -243,6 +246,7 @@ impl NodeConfig {
         self.singularity
             .validate()
             .map_err(|e| bad("singularity", e))?;
+        self.motion.validate().map_err(|e| bad("motion", e))?;
         if !(self.velocity_scale > 0.0 && self.velocity_scale <= 1.0) {
             return Err(bad(
                 "velocity_scale",

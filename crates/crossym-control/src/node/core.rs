@@ -15,7 +15,9 @@ use super::feasibility::feasibility;
 use super::fit::{checked_domain, checked_policy};
 use super::gate::InputGate;
 use super::gate::Inputs;
+use super::motion::{Motion, MotionSupervisor};
 use super::operator::{OperatorRefusal, OperatorRequest, RuntimeBounds, RuntimeSettings};
+use super::period::{EventTotals, StatusPeriod};
 use super::rejection::Rejection;
 use super::singularity::{SingularityBand, SingularityReport, SingularityStatus};
 use super::stage::{OutputStage, PolicyOutput};
@@ -76,6 +78,19 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     not_following_ticks: u64,
     tracking_warning_ticks: u64,
     tracking_error: f64,
+    // Position modes: held-robot and locked-joint detection, and the node's reaction.
+    motion: MotionSupervisor,
+    held: Held,
+    held_events: u64,
+    locked_events: u64,
+    locked_joint: Option<usize>,
+    // Subscribers matched on the command topic (`None`: not known), whether one ever
+    // matched, and whether the next fresh tick restarts from the measured state (a
+    // controller switched back on).
+    command_subscribers: Option<u32>,
+    had_subscriber: bool,
+    resume: bool,
+    motion_seq: u64,
     // Operator controls: the singularity band, pause, the velocity scale, what may change.
     band: SingularityBand,
     singular: SingularityReport,
@@ -96,6 +111,18 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     age_s: f64,
     tick_time_us: f64,
     tick_time_max_us: f64,
+    period: StatusPeriod,
+}
+
+/// A held robot's handling (position modes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Held {
+    /// Not held.
+    Clear,
+    /// Found held: holding at the measured state until the time (s).
+    Dwell(f64),
+    /// Trying the policy again; reported held until a joint moves.
+    Probe,
 }
 
 impl NodeCore {
@@ -146,6 +173,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             rules,
         )?;
         let fs = filter.settings();
+        let motion_delay = fs.latency() + fs.state_delay_s;
         validate_tracking(&safety)?;
         let pos_capacity = ((cfg.stale_timeout_s
             + fs.state_delay_s
@@ -212,6 +240,15 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             not_following_ticks: 0,
             tracking_warning_ticks: 0,
             tracking_error: 0.0,
+            motion: MotionSupervisor::new(n, cfg.motion, motion_delay),
+            held: Held::Clear,
+            held_events: 0,
+            locked_events: 0,
+            locked_joint: None,
+            command_subscribers: None,
+            had_subscriber: false,
+            resume: false,
+            motion_seq: 0,
             band,
             singular: SingularityReport {
                 status: SingularityStatus::Clear,
@@ -233,6 +270,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             age_s: -1.0,
             tick_time_us: 0.0,
             tick_time_max_us: 0.0,
+            period: StatusPeriod::new(),
             cfg,
             kin,
         })
@@ -383,18 +421,39 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         })
     }
 
-    /// Position modes, before the policy runs: whether the robot follows the commands (the
-    /// hull test, and with a lag window no jump), else a restart from the measured state at
-    /// rest, counted; `Err` with the braking tick once the restarts say the robot does not
-    /// follow. `Ok((restarted, lagging))`, lagging: the tracking warning holds.
-    fn follow(&mut self, now_s: f64, out: &mut Command) -> Result<(bool, bool), TickReport> {
-        let mut restarted = false;
+    /// Position modes, before the policy runs: a held robot or a locked joint
+    /// ([`MotionSupervisor`]), whether the robot follows the commands (the hull test, and
+    /// with a lag window no jump), else a restart from the measured state at rest, counted;
+    /// `Err` with the braking tick once the restarts say the robot does not follow, or when
+    /// the robot was found held. `Ok((restart, lagging))`: the restart's code, if any, and
+    /// whether the tracking warning holds.
+    fn follow(
+        &mut self,
+        now_s: f64,
+        out: &mut Command,
+    ) -> Result<(Option<StatusCode>, bool), TickReport> {
+        let motion = self.watch_motion();
+        if let Motion::Held { .. } = motion {
+            // Hold where the robot is (no command away from it while it cannot move), then
+            // try again: a release finds the commands on the measured state.
+            self.held_events = self.held_events.saturating_add(1);
+            self.restart_at_rest(now_s);
+            self.held = Held::Dwell(now_s + self.cfg.motion.held_dwell_s);
+            return Err(self.braking(now_s, out, StatusCode::RobotHeld));
+        }
+        let locked = if let Motion::Locked { joint } = motion {
+            self.locked_events = self.locked_events.saturating_add(1);
+            self.locked_joint = Some(joint);
+            true
+        } else {
+            false
+        };
         // With a lag window, a measured jump (a reset, a robot moved by something else)
         // restarts even when it lands inside the envelope of the window's commands.
         // Without one the envelope is the commands since the measurement: a jump
         // leaves it anyway.
         let jumped = self.cfg.safety.tracking_window_s > 0.0 && self.measured_jump();
-        let tracks = !self.has_hold || (!jumped && self.tracks_commands());
+        let tracks = !self.has_hold || (!locked && !jumped && self.tracks_commands());
         if !tracks && self.count_restart(now_s) {
             // Repeated restarts: the robot does not follow. Hold where the commands are.
             self.halted = true;
@@ -403,25 +462,62 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             self.tracking_high_since = None;
             return Err(self.braking(now_s, out, StatusCode::RobotNotFollowing));
         }
+        let mut restart = None;
         if !self.has_hold || !tracks {
-            restarted = self.has_hold;
-            for j in 0..self.n {
-                self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
-            }
-            self.filter.reset(&self.zeros);
             if self.has_hold {
-                // Commands still in flight may yet move the robot: keep them in the hull.
-                self.pos_history.push(now_s, &self.q_hold);
-            } else {
-                self.pos_history.reset_to(&self.q_hold);
+                restart = Some(if locked {
+                    StatusCode::JointLocked
+                } else {
+                    StatusCode::RestartedFromMeasured
+                });
             }
-            self.has_hold = true;
-            self.tracking_high_since = None;
-            self.tracking_error = 0.0;
-            self.v_last.fill(0.0);
+            self.restart_at_rest(now_s);
         }
         let lagging = self.watch_tracking(now_s);
-        Ok((restarted, lagging))
+        Ok((restart, lagging))
+    }
+
+    /// The motion supervisor on a new joint state (position modes, while commands are
+    /// continued): held, locked or nothing.
+    fn watch_motion(&mut self) -> Motion {
+        let i = &self.gate.inputs;
+        if !self.has_hold || i.joint_state_seq == self.motion_seq {
+            return Motion::Normal;
+        }
+        self.motion_seq = i.joint_state_seq;
+        let t = i.state_time_s.unwrap_or(i.measured_time_s);
+        let m = self.motion.measure(t, &i.q);
+        if self.held == Held::Probe {
+            if self.motion.moved() {
+                self.held = Held::Clear;
+            } else if let Some(joint) = (0..self.n)
+                .find(|&j| (self.q_hold[j] - i.q[j]).abs() > self.cfg.safety.tracking_tolerance)
+            {
+                // Tried again and still held: no farther than the tracking tolerance from
+                // the robot (a release then finds the command close to its state).
+                return Motion::Held { joint };
+            }
+        }
+        m
+    }
+
+    /// The commands restart from the measured state at rest (position modes).
+    fn restart_at_rest(&mut self, now_s: f64) {
+        for j in 0..self.n {
+            self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
+        }
+        self.filter.reset(&self.zeros);
+        if self.has_hold {
+            // Commands still in flight may yet move the robot: keep them in the hull.
+            self.pos_history.push(now_s, &self.q_hold);
+        } else {
+            self.pos_history.reset_to(&self.q_hold);
+        }
+        self.has_hold = true;
+        self.tracking_high_since = None;
+        self.tracking_error = 0.0;
+        self.v_last.fill(0.0);
+        self.motion.reset();
     }
 
     /// The command of the filtered velocity `v`: `v`, and `q + v·Δt` clamped into the
@@ -510,6 +606,15 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
 
     /// One control tick at time `now_s` (s) into `out`; allocation-free. See the module docs.
     pub fn tick(&mut self, now_s: f64, out: &mut Command) -> TickReport {
+        let report = self.tick_inner(now_s, out);
+        if self.is_position() {
+            self.motion.command(now_s, &self.v_last);
+        }
+        self.period.observe(report.code);
+        report
+    }
+
+    fn tick_inner(&mut self, now_s: f64, out: &mut Command) -> TickReport {
         self.ticks = self.ticks.saturating_add(1);
         let fresh = match self.gate.inputs.state_time_s {
             Some(t) => {
@@ -535,9 +640,18 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             report.publish &= moving;
             return report;
         }
+        // The controller switched off (the command topic lost its subscribers): hold, and
+        // start again from the measured state when one matches again.
+        if self.had_subscriber && self.command_subscribers == Some(0) {
+            self.resume = true;
+            return self.braking(now_s, out, StatusCode::NoCommandSubscriber);
+        }
         if !fresh {
             return self.braking(now_s, out, StatusCode::StaleJointStates);
         }
+        // Joint states back after a silence (a driver restarting): the hull test below
+        // restarts from the measured state when the robot is not where the braking
+        // commands left it (moved by hand); else the commands go on from there.
         if self.paused {
             self.paused_ticks = self.paused_ticks.saturating_add(1);
             return self.braking(now_s, out, StatusCode::Paused);
@@ -554,16 +668,34 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             self.has_hold = false;
             self.restart_times.fill(f64::NEG_INFINITY);
         }
+        // A held robot is held at its measured state for a while, then tried again.
+        if let Held::Dwell(until) = self.held {
+            if now_s < until {
+                return self.braking(now_s, out, StatusCode::RobotHeld);
+            }
+            self.held = Held::Probe;
+            self.has_hold = false;
+        }
+        let mut resumed = false;
+        if std::mem::take(&mut self.resume) && self.is_position() && self.has_hold {
+            self.has_hold = false;
+            self.restarts = self.restarts.saturating_add(1);
+            resumed = true;
+        }
         // Position modes: the next command continues the last commanded position, unless
         // there is none yet or the robot is not where the commands put it.
-        let (restarted, lagging) = if self.is_position() {
+        let (mut restart, lagging) = if self.is_position() {
             match self.follow(now_s, out) {
                 Ok(flags) => flags,
                 Err(report) => return report,
             }
         } else {
-            (false, false)
+            (None, false)
         };
+        if resumed {
+            restart = Some(StatusCode::RestartedFromMeasured);
+        }
+        let held = self.held == Held::Probe;
         let inputs = &self.gate.inputs;
         let q = inputs.q.as_slice();
         // FK and Jacobian once: the safety filter reads the Jacobian, the policy's task
@@ -663,7 +795,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             rejected,
             &report,
             infeasible,
-            restarted,
+            restart,
+            held,
             lagging,
             self.singular.status,
         );
@@ -756,6 +889,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
                 self.inactive = !a;
             }
             OperatorRequest::Reset => {
+                self.held = Held::Clear;
                 self.halted = false;
                 self.has_hold = false;
                 self.restart_times.fill(f64::NEG_INFINITY);
@@ -802,6 +936,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
 
     /// Snapshot for the Status message.
     pub fn status(&self) -> StatusSnapshot {
+        let (period_code, period_ticks, period) =
+            self.period.report(self.code, &self.event_totals());
         StatusSnapshot {
             code: self.code,
             message: self.code.message(),
@@ -826,7 +962,43 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             velocity_scale: self.velocity_scale,
             singularity_condition: self.singular.condition,
             singularity_factor: self.singular.factor,
+            period_code,
+            period_ticks,
+            period,
+            held_events: self.held_events,
+            locked_events: self.locked_events,
+            locked_joint: self.locked_joint,
+            command_subscribers: self.command_subscribers,
         }
+    }
+
+    /// The running totals of the transient events the status counts per period.
+    fn event_totals(&self) -> EventTotals {
+        let i = &self.gate.inputs;
+        EventTotals {
+            restarts: self.restarts,
+            held: self.held_events,
+            locked: self.locked_events,
+            rejected: u64::from(i.rejected_joint_states) + u64::from(i.rejected_conditions),
+            stale_ticks: self.stale_ticks,
+            fallback_ticks: self.fallback_ticks,
+        }
+    }
+
+    /// Ends the status period (after its status was published): the next snapshot's
+    /// worst code and counts start from here.
+    pub fn end_status_period(&mut self) {
+        let totals = self.event_totals();
+        self.period.restart(totals);
+    }
+
+    /// The number of subscribers matched on the command topic (from the DDS graph, between
+    /// ticks). Once one has matched, none means the controller was switched off: the node
+    /// brakes to a hold (`NO_COMMAND_SUBSCRIBER`) and starts again from the measured state
+    /// when one matches again.
+    pub fn set_command_subscribers(&mut self, n: u32) {
+        self.had_subscriber |= n > 0;
+        self.command_subscribers = Some(n);
     }
 }
 
@@ -877,13 +1049,15 @@ fn clamp_to(l: &JointLimits, x: f64) -> f64 {
 }
 
 /// The status of a tick that published a filtered command, by priority: rejected input,
-/// the filter's fallback, an infeasible condition, a policy fault, a restart, a tracking
-/// warning, the singularity band (halt, then deceleration), a joint on a bound.
+/// the filter's fallback, an infeasible condition, a policy fault, a restart (or a locked
+/// joint), a held robot being tried again, a tracking warning, the singularity band (halt, then deceleration), a joint on a bound.
+#[allow(clippy::too_many_arguments)]
 fn tick_code(
     rejected: bool,
     report: &SafetyReport,
     infeasible: bool,
-    restarted: bool,
+    restart: Option<StatusCode>,
+    held: bool,
     lagging: bool,
     singular: SingularityStatus,
 ) -> StatusCode {
@@ -895,8 +1069,10 @@ fn tick_code(
         StatusCode::ConditionInfeasible
     } else if report.policy_nonfinite {
         StatusCode::PolicyNonfinite
-    } else if restarted {
-        StatusCode::RestartedFromMeasured
+    } else if let Some(code) = restart {
+        code
+    } else if held {
+        StatusCode::RobotHeld
     } else if lagging {
         StatusCode::TrackingError
     } else if singular == SingularityStatus::Halt {
@@ -909,3 +1085,7 @@ fn tick_code(
         StatusCode::NoWarning
     }
 }
+
+#[cfg(test)]
+#[path = "core_tests.rs"]
+mod tests;

@@ -35,7 +35,9 @@ mod error;
 mod feasibility;
 mod fit;
 mod gate;
+mod motion;
 mod operator;
+mod period;
 mod quat;
 mod rejection;
 mod singularity;
@@ -50,7 +52,9 @@ pub use self::core::NodeCore;
 pub use self::error::NodeError;
 pub use self::feasibility::{ConditionFeasibility, Infeasibility};
 pub use self::gate::{InputGate, Inputs, SHUTDOWN_SEQUENCE_BIT};
+pub use self::motion::{Motion, MotionSettings, MotionSupervisor};
 pub use self::operator::{OperatorRefusal, OperatorRequest, RuntimeBounds, RuntimeSettings};
+pub use self::period::{EventTotals, PeriodCounts, StatusPeriod};
 pub use self::rejection::Rejection;
 pub use self::singularity::{
     SingularityBand, SingularityReport, SingularitySettings, SingularityStatus,

@@ -4,6 +4,7 @@
 use crossym_io::msg;
 use crossym_math::symmetry::compose::Condition;
 
+use super::period::PeriodCounts;
 use super::rejection::Rejection;
 use crate::safety::SafetyStatus;
 
@@ -52,6 +53,17 @@ pub enum StatusCode {
     /// Lifecycle state not active (inactive, unconfigured or finalized): no command, except
     /// the braking commands after a deactivation until they reach zero.
     Inactive = 26,
+    /// Position modes: every joint stopped while commanded to move (a collision hold): the
+    /// commands restarted from the measured state and hold there, then the policy is tried
+    /// again; reported until a joint moves.
+    RobotHeld = 27,
+    /// Position modes: one joint did not move while commanded faster than
+    /// `[node] motion.speed` and the others moved (`locked_joint` names it): the commands
+    /// restarted from the measured state (counted like a restart).
+    JointLocked = 28,
+    /// The command topic has no matched subscriber (the controller was switched off):
+    /// braking to a hold; restarts from the measured state when one matches again.
+    NoCommandSubscriber = 29,
 }
 
 impl StatusCode {
@@ -74,6 +86,36 @@ impl StatusCode {
             StatusCode::TrackingError => "TRACKING_ERROR",
             StatusCode::Paused => "PAUSED",
             StatusCode::Inactive => "INACTIVE",
+            StatusCode::RobotHeld => "ROBOT_HELD",
+            StatusCode::JointLocked => "JOINT_LOCKED",
+            StatusCode::NoCommandSubscriber => "NO_COMMAND_SUBSCRIBER",
+        }
+    }
+
+    /// Rank of the code for the worst code of a status period (0 = `NO_WARNING`; higher is
+    /// worse; every code its own rank): faults of the node, then the robot not doing what it
+    /// is told, then inputs, then the operator's states, then shaping by the filter.
+    pub fn severity(self) -> u8 {
+        match self {
+            StatusCode::NoWarning => 0,
+            StatusCode::JointBound => 1,
+            StatusCode::DecelerateForSingularity => 2,
+            StatusCode::DecelerateForCollision => 3,
+            StatusCode::HaltForSingularity => 4,
+            StatusCode::Inactive => 5,
+            StatusCode::Paused => 6,
+            StatusCode::TrackingError => 7,
+            StatusCode::RestartedFromMeasured => 8,
+            StatusCode::ConditionInfeasible => 9,
+            StatusCode::InvalidInput => 10,
+            StatusCode::StaleJointStates => 11,
+            StatusCode::NoCommandSubscriber => 12,
+            StatusCode::JointLocked => 13,
+            StatusCode::RobotHeld => 14,
+            StatusCode::RobotNotFollowing => 15,
+            StatusCode::PolicyNonfinite => 16,
+            StatusCode::SafetyFallback => 17,
+            StatusCode::Shutdown => 18,
         }
     }
 
@@ -83,7 +125,7 @@ impl StatusCode {
     }
 
     /// Every code, for table checks.
-    pub const ALL: [StatusCode; 16] = [
+    pub const ALL: [StatusCode; 19] = [
         StatusCode::NoWarning,
         StatusCode::DecelerateForSingularity,
         StatusCode::HaltForSingularity,
@@ -100,6 +142,9 @@ impl StatusCode {
         StatusCode::TrackingError,
         StatusCode::Paused,
         StatusCode::Inactive,
+        StatusCode::RobotHeld,
+        StatusCode::JointLocked,
+        StatusCode::NoCommandSubscriber,
     ];
 
     /// Human-readable text of the code.
@@ -134,6 +179,17 @@ impl StatusCode {
             StatusCode::Paused => "paused by an operator (~/pause): braking, then holding",
             StatusCode::Inactive => {
                 "lifecycle state not active: no command until activated (~/change_state)"
+            }
+            StatusCode::RobotHeld => {
+                "robot held (every joint stopped while commanded to move): holding at the \
+                 measured state, then trying again"
+            }
+            StatusCode::JointLocked => {
+                "a joint does not move while commanded to (see locked_joint): restarted from \
+                 the measured state"
+            }
+            StatusCode::NoCommandSubscriber => {
+                "no subscriber matched on the command topic (controller off): holding"
             }
         }
     }
@@ -205,6 +261,20 @@ pub struct StatusSnapshot {
     pub singularity_condition: f64,
     /// Factor the singularity band applied at the last tick.
     pub singularity_factor: f64,
+    /// Worst code of the ticks since the previous status ([`StatusCode::severity`]).
+    pub period_code: StatusCode,
+    /// Ticks since the previous status (count).
+    pub period_ticks: u32,
+    /// Transient events since the previous status (counts).
+    pub period: PeriodCounts,
+    /// Position modes: robot-held detections since start (count).
+    pub held_events: u64,
+    /// Position modes: locked-joint detections since start (count).
+    pub locked_events: u64,
+    /// The joint last found locked (index into the controlled joints).
+    pub locked_joint: Option<usize>,
+    /// Subscribers matched on the command topic (`None`: not known).
+    pub command_subscribers: Option<u32>,
 }
 
 impl StatusSnapshot {
@@ -244,6 +314,23 @@ impl StatusSnapshot {
             velocity_scale: self.velocity_scale,
             singularity_condition: self.singularity_condition,
             singularity_factor: self.singularity_factor,
+            period_code: self.period_code as i8,
+            period_ticks: self.period_ticks,
+            period_restarts: self.period.restarts,
+            period_held: self.period.held,
+            period_locked: self.period.locked,
+            period_rejected: self.period.rejected,
+            period_stale_ticks: self.period.stale_ticks,
+            period_fallback_ticks: self.period.fallback_ticks,
+            held_events: self.held_events,
+            locked_events: self.locked_events,
+            locked_joint: self
+                .locked_joint
+                .and_then(|j| joint_names.get(j).cloned())
+                .unwrap_or_default(),
+            command_subscribers: self
+                .command_subscribers
+                .map_or(-1, |n| n.min(i32::MAX as u32) as i32),
         }
     }
 }

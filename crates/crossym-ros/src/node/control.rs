@@ -24,7 +24,7 @@
 //! conditions, status transitions) goes to the I/O thread's log as [`ToIo`] events over a
 //! bounded channel that never blocks.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::sync::Arc;
 use std::thread;
@@ -107,6 +107,9 @@ pub(super) struct Links {
     /// Operator requests from the I/O thread (with where they came from), applied between
     /// ticks.
     pub(super) from_io: Receiver<(OperatorRequest, &'static str)>,
+    /// Subscribers matched on the command topic, counted by the I/O thread (`u32::MAX`:
+    /// not known yet); read between ticks.
+    pub(super) command_subscribers: Arc<AtomicU32>,
 }
 
 /// How long the loop keeps delivering after the final command: reliable writers deliver
@@ -331,6 +334,10 @@ impl ControlThread {
         let trigger = cfg.trigger;
         let period_s = cfg.period_s;
         self.operator_requests();
+        let matched = self.links.command_subscribers.load(Ordering::Acquire);
+        if matched != u32::MAX {
+            self.core.set_command_subscribers(matched);
+        }
         let t0 = Instant::now();
         let now_ns = dds::wall_time_ns();
         let fresh = seq != self.run.last_seq;
@@ -631,10 +638,12 @@ impl ControlThread {
         )
     }
 
-    /// Publishes `~/status` (and hands the snapshot to the log); false on a publish error.
-    fn publish_status(&self) -> bool {
+    /// Publishes `~/status` (and hands the snapshot to the log) and starts the next status
+    /// period; false on a publish error.
+    fn publish_status(&mut self) -> bool {
         let stamp_ns = dds::wall_time_ns();
         let snap = self.core.status();
+        self.core.end_status_period();
         self.tell(ToIo::Status(snap));
         let m = snap.to_msg(
             msg::Time::from_secs_f64(stamp_ns as f64 * 1e-9),
@@ -669,6 +678,17 @@ pub(super) enum CommandPublisher {
 }
 
 impl CommandPublisher {
+    /// The subscribers matched with the writer (`node` created it; ros2-client's
+    /// `Publisher::get_subscription_count`: the remote readers RustDDS matched, updated by
+    /// the spinner from the participant's matched / lost events). Locks the node's map:
+    /// the I/O thread calls it, never the tick.
+    pub(super) fn subscription_count(&self, node: &ros2_client::Node) -> usize {
+        match self {
+            CommandPublisher::Array(p) => p.get_subscription_count(node),
+            CommandPublisher::Trajectory(p) => p.get_subscription_count(node),
+        }
+    }
+
     /// Publishes `cmd` (and hands a copy to the recorder with the tick time and inputs).
     pub(super) fn publish(
         &self,

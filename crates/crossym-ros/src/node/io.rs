@@ -4,8 +4,9 @@
 //! then at most once per second with a count, accepted condition changes, and transitions
 //! read from the status snapshots (stale ↔ fresh, safety fallbacks, policy faults).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
+use std::sync::Arc;
 use std::time::Duration;
 
 use super::control::ToIo;
@@ -42,6 +43,9 @@ pub(super) struct IoSide {
     pub(super) lifecycle: Lifecycle,
     /// `~/change_state`, `~/get_state`, … and `~/transition_event`.
     pub(super) lifecycle_services: LifecycleServices,
+    /// Subscribers matched on the command topic, for the control thread (`u32::MAX`: not
+    /// known yet).
+    pub(super) command_subscribers: Arc<AtomicU32>,
 }
 
 impl IoSide {
@@ -306,7 +310,14 @@ impl IoSide {
 
     /// The I/O loop: the spinner, signals, and every 20 ms the control thread's events and
     /// `stop`; returns on a signal or `stop`.
-    pub(super) async fn serve(&mut self, spinner: ros2_client::Spinner, stop: &AtomicBool) {
+    /// `matched` counts the subscribers matched on the command topic (read every 20 ms and
+    /// handed to the control thread).
+    pub(super) async fn serve(
+        &mut self,
+        spinner: ros2_client::Spinner,
+        stop: &AtomicBool,
+        matched: &dyn Fn() -> usize,
+    ) {
         tokio::spawn(spinner.spin());
         let signals = dds::shutdown_signal();
         tokio::pin!(signals);
@@ -353,7 +364,10 @@ impl IoSide {
                     Err(e) => self.log.limited("service", Severity::Warn, &format!("~/get_transition_graph: bad request: {e:?}")),
                 },
                 _ = poll.tick() => {
+                    let n = matched().min(u32::MAX as usize - 1) as u32;
+                    self.command_subscribers.store(n, Ordering::Release);
                     self.drain();
+                    self.log.flush_due();
                     if stop.load(Ordering::Acquire) {
                         break;
                     }

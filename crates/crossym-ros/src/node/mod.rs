@@ -28,7 +28,7 @@ mod services;
 mod stats;
 
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Arc;
 use std::thread;
 use std::time::Duration;
@@ -104,6 +104,8 @@ pub fn run(
             message: format!("{e:?}"),
         })?;
     let ends = Endpoints::create(&mut node, &cfg)?;
+    let command_pub = ends.command.clone();
+    let command_subscribers = Arc::new(AtomicU32::new(u32::MAX));
     let services = Services::create(&mut node)?;
     let lifecycle_services = lifecycle::LifecycleServices::create(&mut node)?;
     started.store(true, Ordering::Release);
@@ -140,6 +142,7 @@ pub fn run(
         rec: recorder.as_ref().map(|r| r.0.clone()),
         stop: stop.clone(),
         from_io,
+        command_subscribers: command_subscribers.clone(),
     };
     let control = ControlThread::new(core, ends, links).map_err(|e| NodeRunError::Runtime {
         message: format!("control thread: {e}"),
@@ -164,8 +167,8 @@ pub fn run(
 
     let mut io = IoSide {
         gate,
+        watch: StatusWatch::with_names(names.clone()),
         names,
-        watch: StatusWatch::default(),
         from_control,
         log,
         ops: ops_rx,
@@ -178,8 +181,10 @@ pub fn run(
             lifecycle::Primary::Inactive
         }),
         lifecycle_services,
+        command_subscribers,
     };
-    runtime.block_on(io.serve(spinner, &stop));
+    let matched = || command_pub.subscription_count(&node);
+    runtime.block_on(io.serve(spinner, &stop, &matched));
     stop.store(true, Ordering::Release);
     shared.wake();
     let stats = finish(&done_rx, recorder, io);
@@ -219,7 +224,8 @@ struct Endpoints {
     /// pose arrives (never registered with the poll: the tree's traffic does not wake the
     /// control thread).
     tf: Option<TfSubscriptions>,
-    command: CommandPublisher,
+    /// Shared with the I/O thread, which counts its matched subscribers.
+    command: Arc<CommandPublisher>,
     status: ros2_client::Publisher<msg::Status>,
 }
 
@@ -268,7 +274,7 @@ impl Endpoints {
                 Some(p) if p.tf => Some(TfSubscriptions::create(node)?),
                 _ => None,
             },
-            command,
+            command: Arc::new(command),
             status: dds::publisher::<msg::Status>(
                 node,
                 &cfg.topics.status,

@@ -70,6 +70,24 @@ pub struct MujocoConfig {
     /// Fault: the hardware's collision hold from this time (s after start): it holds its
     /// position and ignores commands.
     pub hold_after_s: Option<f64>,
+    /// The lock of `freeze_joint` releases after this long (s); `None`: never.
+    pub freeze_s: Option<f64>,
+    /// The collision hold releases after this long (s); `None`: never.
+    pub hold_s: Option<f64>,
+    /// Fault: the vendor driver restarts at this time (s after start): no joint states and
+    /// commands dropped for `driver_restart_s`, the controller's state reset.
+    pub driver_restart_after_s: Option<f64>,
+    /// How long the driver is down (s).
+    pub driver_restart_s: f64,
+    /// Where the arm is found when the driver is back: this far (rad) from where it stopped
+    /// on every controlled joint (moved by hand).
+    pub driver_restart_step: f64,
+    /// Fault: the trajectory controller is switched off at this time (s after start): its
+    /// command subscription is deleted (the node's publisher loses its match), the hardware
+    /// holds; on again after `controller_off_s`.
+    pub controller_off_after_s: Option<f64>,
+    /// How long the controller is off (s).
+    pub controller_off_s: f64,
     /// The program to run (`physics/rby1_mujoco.py`); default: `$CROSSYM_PHYSICS_DIR` or
     /// the `physics/` folder of the source tree crossym was built from.
     pub program: Option<PathBuf>,
@@ -90,6 +108,13 @@ impl Default for MujocoConfig {
             freeze_joint: None,
             freeze_after_s: None,
             hold_after_s: None,
+            freeze_s: None,
+            hold_s: None,
+            driver_restart_after_s: None,
+            driver_restart_s: 3.0,
+            driver_restart_step: 0.0,
+            controller_off_after_s: None,
+            controller_off_s: 2.0,
             program: None,
         }
     }
@@ -220,6 +245,29 @@ impl MujocoConfig {
         }
         if let Some(t) = self.hold_after_s {
             a.extend(["--hold-after-s".into(), format!("{t:?}")]);
+        }
+        for (flag, v) in [("--freeze-s", self.freeze_s), ("--hold-s", self.hold_s)] {
+            if let Some(v) = v {
+                a.extend([flag.into(), format!("{v:?}")]);
+            }
+        }
+        if let Some(t) = self.driver_restart_after_s {
+            a.extend([
+                "--driver-restart-after-s".into(),
+                format!("{t:?}"),
+                "--driver-restart-s".into(),
+                format!("{:?}", self.driver_restart_s),
+                "--driver-restart-step".into(),
+                format!("{:?}", self.driver_restart_step),
+            ]);
+        }
+        if let Some(t) = self.controller_off_after_s {
+            a.extend([
+                "--controller-off-after-s".into(),
+                format!("{t:?}"),
+                "--controller-off-s".into(),
+                format!("{:?}", self.controller_off_s),
+            ]);
         }
         if let Some(s) = run.summary {
             a.extend(["--summary".into(), s.display().to_string()]);
