@@ -1,11 +1,12 @@
-//! The node against a physics RB-Y1 (issue: a robot with dynamics): the vendor SDK's MuJoCo
+//! The node against a physics RB-Y1 (a robot with dynamics): the vendor SDK's MuJoCo
 //! model behind an emulation of the vendor's ROS 2 stack (`physics/rby1_mujoco.py`, Cyclone
 //! DDS, a separate process), driven by `crossym demo --plant mujoco` over DDS.
 //!
 //! Needs `robots/rby1a/` (the vendor's model files, shipped) and PyPI `mujoco` + `cyclonedds`
 //! (`physics/install.sh`, run by `.ci/run`); missing either is a failure, not a skip.
-//! Both tests run in real time against a robot paced by the wall clock: `.ci/run` runs them
-//! in their own step, one at a time (`--ignored --test-threads=1`), not beside the suite.
+//! The tests run in real time against a robot paced by the wall clock: `.ci/run` runs them
+//! in their own step, one at a time (`--ignored --test-threads=1`), not beside the suite,
+//! and checks that the step ran as many as this file (and `physics_*.rs`) declare.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -133,11 +134,16 @@ fn restarts(log: &str) -> u64 {
         .unwrap_or(0)
 }
 
-/// A lagging, sagging RB-Y1 (no gravity compensation) draws a rotated letter as the real
-/// robot did in the paper (≤ 0.033 m), with one restart (the demo's teleport to the start)
-/// and no limit crossed; the same run with the fixed 2 mrad rule of before (no lag window)
-/// is seen to fail: the node restarts again and again and then reports the robot as not
-/// following.
+/// A lagging, sagging RB-Y1 (no gravity compensation) draws a rotated letter (30°) with the
+/// shipped letters policy (the task-space head of `config/rby1-letters.toml`): under the
+/// paper's resampled protocol (the demo's `RMSE paper protocol` column, the script the
+/// authors scored their real robot with) at or below the paper's real-robot 0.033 m —
+/// measured 0.0059 m (closed loop 0.0118 m over time, offline rollout 0.0142 m), so the bound
+/// has 5.6× headroom; the old rule's run below scores 0.061 m. The demo itself passes (its
+/// closed loop within 1.5× the offline rollout, no error status, the bag replays), with
+/// one restart (the demo's teleport to the start) and no limit crossed. The same run with
+/// the fixed 2 mrad rule of before (no lag window) is seen to fail: the node restarts again
+/// and again and then reports the robot as not following.
 #[test]
 #[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
 fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
@@ -146,12 +152,15 @@ fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
     let cfg = letters_config(&dir, &[]);
     let r = demo(&cfg, &dir.join("new"), &["0.5235987755982988:1:1"], "6");
     assert_eq!(r.rmse.len(), 1, "{}", r.output);
+    let paper = paper_column(&dir.join("new"));
     assert!(
-        r.rmse[0] <= 0.033,
-        "closed-loop RMSE {} m on the physics robot (paper's real robot: 0.033 m)\n{}",
-        r.rmse[0],
+        paper[0] <= 0.033,
+        "paper-protocol RMSE {} m on the physics robot, above the paper's real robot's \
+         0.033 m (measured 0.0059 m: 5.6× headroom)\n{}",
+        paper[0],
         r.output
     );
+    assert!(r.ok, "the demo failed on the physics robot:\n{}", r.output);
     assert_followed(&r);
     assert!(r.summary["commands_received"].as_u64().unwrap() > 300);
     assert_eq!(r.summary["commands_invalid"], 0, "{}", r.summary);
@@ -222,7 +231,8 @@ fn physics_rby1_that_stops_following_is_held_and_reported() {
 /// fail; its motors keep following the last commands): a NaN position, a missing joint,
 /// silence (stale states). Across a condition switch, the node commands nothing non-finite,
 /// the robot crosses no URDF limit (position or velocity, checked by the robot on every
-/// physics step), and the node says what happened.
+/// physics step), and the node says what happened. The demo fails only by its own rules on
+/// the faulted run (the node's input-fault status, an RMSE over the faulted states).
 #[test]
 #[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
 fn physics_rby1_survives_input_faults_while_it_moves() {
@@ -267,50 +277,70 @@ fn physics_rby1_survives_input_faults_while_it_moves() {
             !output.contains("node exited with"),
             "{kind}: the node failed:\n{output}"
         );
+        // The demo scores what the robot reported: the faulted states make it fail by its
+        // own rules (the node's input-fault status codes, an RMSE over NaN positions), and
+        // for no other reason (no limit crossed, no process failed, the bag replays).
+        let failures: Vec<&str> = output
+            .lines()
+            .filter(|l| l.starts_with("demo: FAILED:"))
+            .collect();
+        assert!(
+            r.ok || !failures.is_empty(),
+            "{kind}: the demo failed without saying why:\n{output}"
+        );
+        let other: Vec<&&str> = failures
+            .iter()
+            .filter(|l| !(l.contains("node status codes") || l.contains("closed-loop RMSE")))
+            .collect();
+        assert!(
+            other.is_empty(),
+            "{kind}: the demo failed for more than the fault: {other:?}\n{output}"
+        );
     }
 }
 
-/// The pan grasped on the physics robot (no gravity compensation) and on the kinematic mock,
-/// same condition (45°, the demonstrated right arm): the physics robot within 1.5× (+ 3 mm)
-/// of the kinematic mock, at or below the paper's real-robot 0.017 m under the paper's
-/// resampled protocol (measured 0.014 m; the one pan cell this pins), one restart (the
-/// demo's teleport to the start), no robot reported as not following, no actuator held at
-/// its torque limit for long (< 0.3 s; target steps are bounded), no limit crossed.
+/// The pan grasped with the shipped policy (`config/rby1-pan.toml`'s node default, the
+/// task-space head `pi_mr_head_rby1_pan`) on the physics robot (no gravity compensation) and
+/// on the kinematic mock, same condition (45°, the demonstrated right arm). The physics robot
+/// adds its servo's lag to the kinematic mock's error, an amount that does not scale with the
+/// policy's own error (the joint-space π_MR this test ran before lagged by as much, from
+/// twice the kinematic error): physics closed-loop RMSE ≤ kinematic + 0.012 m (measured
+/// 0.0147–0.0152 m against 0.0079 m: the servo adds 0.007 m); under the paper's resampled
+/// protocol at or below the paper's real-robot 0.017 m (measured 0.0060–0.0062 m). Both
+/// demos pass (closed loop within 1.5× the offline rollout, no error status, the bag
+/// replays); one restart (the demo's teleport to the start), no robot reported as not
+/// following, no limit crossed, and no actuator at its torque limit for long: < 0.6 s in
+/// all. The head holds `right_arm_5` there for 0.484 s (the same in every run; π_MR stayed
+/// under 0.3 s, this test's bound before it tested the head).
 #[test]
 #[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
 fn physics_rby1_grasps_the_pan_as_the_kinematic_mock_does() {
     require_physics();
     let dir = temp_dir("physics-pan");
-    // The joint-space π_MR this comparison was calibrated on (the shipped head, measured
-    // 2026-12-04: physics 0.0154 m vs kinematic 0.0079 m, paper protocol 0.0063 m — the
-    // servo's lag adds about as much as to π_MR, the head's kinematic error is half).
-    let cfg = rby1_config(
-        "rby1-pan.toml",
-        &dir,
-        &[(
-            "pi_mr_head_rby1_pan.safetensors\"\nperiod_s",
-            "pi_mr_rby1_pan.safetensors\"\nperiod_s",
-        )],
-    );
+    let cfg = rby1_config("rby1-pan.toml", &dir, &[]);
     let cond = ["0.7853981633974483:1:1"];
     let r = demo(&cfg, &dir.join("physics"), &cond, "10");
     assert_eq!(r.rmse.len(), 1, "{}", r.output);
-    let kin = demo_on("kinematic", &cfg, &dir.join("kinematic"), &cond, "10").rmse;
-    assert_eq!(kin.len(), 1);
+    let k = demo_on("kinematic", &cfg, &dir.join("kinematic"), &cond, "10");
+    assert_eq!(k.rmse.len(), 1, "{}", k.output);
+    assert!(k.ok, "the demo failed on the kinematic mock:\n{}", k.output);
+    let (physics, kin) = (r.rmse[0], k.rmse[0]);
     assert!(
-        r.rmse[0] <= 1.5 * kin[0] + 0.003,
-        "physics RMSE {} m vs kinematic {} m\n{}",
-        r.rmse[0],
-        kin[0],
+        physics <= kin + 0.012,
+        "physics RMSE {physics} m vs kinematic {kin} m: the servo adds {} m (measured \
+         0.007 m, bound 0.012 m)\n{}",
+        physics - kin,
         r.output
     );
     let paper = paper_column(&dir.join("physics"));
     assert!(
         paper[0] <= 0.017,
-        "paper-protocol RMSE {} m on the physics robot (paper's real robot: 0.017 m)\n{}",
+        "paper-protocol RMSE {} m on the physics robot, above the paper's real robot's \
+         0.017 m (measured 0.0060–0.0062 m)\n{}",
         paper[0],
         r.output
     );
+    assert!(r.ok, "the demo failed on the physics robot:\n{}", r.output);
     assert_followed(&r);
     assert_eq!(r.summary["commands_invalid"], 0, "{}", r.summary);
     let torque = r.summary["torque_limit_time_s"]
@@ -321,8 +351,8 @@ fn physics_rby1_grasps_the_pan_as_the_kinematic_mock_does() {
         .filter_map(|v| v.as_f64())
         .fold(0.0, f64::max);
     assert!(
-        worst < 0.3,
-        "an actuator spent {worst} s at its torque limit: {}",
+        worst < 0.6,
+        "an actuator spent {worst} s at its torque limit (the head: 0.484 s, right_arm_5): {}",
         r.summary["torque_limit_time_s"]
     );
 }
