@@ -6,6 +6,7 @@ use crossym_math::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
 use crossym_math::symmetry::compose::Condition;
 use crossym_policy::{AnyPolicy, AnyWorkspace};
 
+use super::code::StatusCode;
 use super::command::Command;
 use super::config::validate_tracking;
 use super::config::NodeConfig;
@@ -21,7 +22,6 @@ use super::period::{EventTotals, StatusPeriod};
 use super::rejection::Rejection;
 use super::singularity::{SingularityBand, SingularityReport, SingularityStatus};
 use super::stage::{OutputStage, PolicyOutput};
-use super::status::StatusCode;
 use super::status::StatusSnapshot;
 use super::status::TickReport;
 use crate::safety::history::{CommandHistory, CommandWindow};

@@ -28,6 +28,7 @@
 //! effect at the measurement above `safety.tracking_warning` for longer than the window is
 //! reported as `TRACKING_ERROR`.
 
+mod code;
 mod command;
 mod config;
 mod core;
@@ -46,6 +47,7 @@ mod status;
 mod task_pose;
 mod tf;
 
+pub use self::code::StatusCode;
 pub use self::command::Command;
 pub use self::config::{NodeConfig, OutputMode, TopicNames, Trigger, SUPPORTED_ROS_DISTROS};
 pub use self::core::NodeCore;
@@ -60,7 +62,7 @@ pub use self::singularity::{
     SingularityBand, SingularityReport, SingularitySettings, SingularityStatus,
 };
 pub use self::stage::{OutputStage, PolicyOutput};
-pub use self::status::{StatusCode, StatusSnapshot, TickReport};
+pub use self::status::{StatusSnapshot, TickReport};
 pub use self::task_pose::{
     PoseCondition, PoseRejection, TaskPoseConfig, TaskPoseConfigError, TaskPoseMap,
 };

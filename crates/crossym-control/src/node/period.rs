@@ -6,7 +6,7 @@
 //! running totals ([`EventTotals`]) against their values at the start of the period.
 //! Allocation-free.
 
-use super::status::StatusCode;
+use super::code::StatusCode;
 
 /// Running totals of the node's transient events (counts since start).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
