@@ -652,7 +652,7 @@ fn standalone_recorder_over_dds() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("geometry_msgs/msg/Twist"));
 }
 
-/// The RB-Y1 experiments as closed loops (issue 7): `crossym demo` on the pan-grasping
+/// The RB-Y1 experiments as closed loops (paper Sec. VI-B): `crossym demo` on the pan-grasping
 /// and letter configs starts mock-hw and the node (position output, 14 arm joints) over
 /// DDS, publishes conditions, records a bag and replays it; it exits 0 only with no limit
 /// violation, RMSE within 1.5× of the offline rollout and an exact replay.
@@ -728,7 +728,7 @@ fn rby1_letters_closed_loop() {
     );
 }
 
-/// Conditions from what the robot sees (issue 37): the RB-Y1 pan config's node
+/// Conditions from what the robot sees: the RB-Y1 pan config's node
 /// (`[node.task_pose]`) beside the mock hardware, and an independent perception stand-in
 /// (`tests/peer/pose_peer.py`, Cyclone DDS) turning the pan while the robot works: the
 /// node's condition follows each pose as the peer computes it from the handle's position

@@ -1,4 +1,4 @@
-//! Issue 18 from the outside: `crossym node` runs a *canonicalised* policy
+//! Canonicalised policies from the outside: `crossym node` runs a *canonicalised* policy
 //! `π(q, s) = dΦ_g|_{q₀} π₀(q₀)`, `q₀ = Φ_g⁻¹(q)` (the shipped π_MRT used as `π₀`) as a
 //! separate process over DDS, against `crossym mock-hw` integrating its velocity commands.
 //! The test process publishes conditions and reads `~/status`, the commands and the joint

@@ -1,4 +1,4 @@
-//! Issue 16 from the outside: the robot's joint states turn invalid (a NaN position, then a
+//! Invalid input from the outside: the robot's joint states turn invalid (a NaN position, then a
 //! controlled joint missing) while the arm moves against a joint limit, and the robot keeps
 //! integrating the node's velocity commands meanwhile. The limits of the planar letters
 //! robot are tightened to `rest ± 0.35 rad` and `0.4 rad/s` in a copy of its URDF; the node

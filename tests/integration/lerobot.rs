@@ -1,4 +1,4 @@
-//! LeRobot datasets (issue 38, first slice): datasets written by an independent tool
+//! LeRobot datasets: datasets written by an independent tool
 //! (PyPI pyarrow, `tests/lerobot/write_dataset.py`, to LeRobot's documented layout; LeRobot's
 //! own writer needs torch, which CI does not install) read back sample for sample in both
 //! format versions, both state layouts and three codecs; each refusal names the file, the

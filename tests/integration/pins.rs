@@ -81,7 +81,7 @@ fn shipped_rby1_policies_score_as_shipped() {
         &[(15.0, 1.0, 1), (-30.0, 1.0, -1)],
     );
     assert_pinned("pi_mr_rby1_pan", &pan, PIN_RBY1_PAN);
-    // The task-space heads (issue 37), as every command loads them: with their configs'
+    // The task-space heads, as every command loads them: with their configs'
     // `[redundancy]` null-space term in the lift.
     let head = scores(
         "rby1-letters.toml",

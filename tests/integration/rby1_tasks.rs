@@ -1,4 +1,4 @@
-//! The RB-Y1 tasks (issue 7, paper Sec. VI-B): letters drawn in a 3-D plane, synthetic
+//! The RB-Y1 tasks (paper Sec. VI-B): letters drawn in a 3-D plane, synthetic
 //! reaching demonstrations, explicit test-condition lists and the `[M, R]` composition
 //! without scaling. Skipped (with a message) when `robots/rby1a/` is absent.
 

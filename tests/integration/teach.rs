@@ -1,4 +1,4 @@
-//! Teach a new task from recorded demonstrations (issue 19), end to end over DDS (run inside
+//! Teach a new task from recorded demonstrations, end to end over DDS (run inside
 //! `tools/netns-run`, as `.ci/run` does):
 //!
 //! 1. the scripted motion (`tests/tools/teach_motion.py`: rest, hold, the LEFT arm's
