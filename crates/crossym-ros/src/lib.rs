@@ -8,6 +8,7 @@
 //!   thread, recording, statistics;
 //! - [`log`]: the node's console and `/rosout` log;
 //! - [`idle_poll`]: `[node] realtime.idle_poll`'s pollers, which keep idle CPUs from halting;
+//! - [`realtime`]: `[node] realtime` applied to a process (the node, `crossym ping`);
 //! - [`replay`]: offline replay of a recorded bag through the node core;
 //! - [`sim`]: mock hardware, the physics robot (MuJoCo, out of process), scenarios and
 //!   the stress campaign.
@@ -35,6 +36,7 @@ pub mod idle_poll;
 pub mod lifecycle_client;
 pub mod log;
 pub mod node;
+pub mod realtime;
 pub mod replay;
 pub mod ros_args;
 pub mod sim;

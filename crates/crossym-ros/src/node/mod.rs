@@ -43,8 +43,8 @@ use self::services::Services;
 pub use self::stats::{HopStats, TickStats};
 use super::dds::{self, DdsError, DdsSettings};
 use super::event_loop::LoopThread;
-use super::idle_poll::IdlePoll;
 use super::log::{NodeLog, StatusWatch};
+use super::realtime::{apply_realtime, RealtimeHold};
 use crossym_control::node::{InputGate, NodeCore, OutputMode};
 use crossym_control::Severity;
 use crossym_io::bag::BagError;
@@ -160,9 +160,19 @@ pub fn run(
             })?;
     shared.wake();
     // Held until the node stops (the kernel drops the CPU latency request on close).
-    let (_cpu_latency, idle_poll) = match &cfg.realtime {
-        Some(rt) => apply_realtime(rt, control_thread, &mut log),
-        None => (None, None),
+    let RealtimeHold {
+        cpu_latency: _cpu_latency,
+        idle_poll,
+    } = match &cfg.realtime {
+        Some(rt) => apply_realtime(rt, control_thread, |o| {
+            let severity = if o.is_refused() {
+                Severity::Warn
+            } else {
+                Severity::Info
+            };
+            log.log(severity, &o.to_string());
+        }),
+        None => RealtimeHold::default(),
     };
 
     let mut io = IoSide {
@@ -282,43 +292,6 @@ impl Endpoints {
             )?,
         })
     }
-}
-
-/// Applies `[node] realtime` to the control thread (the DDS event loop: `dds_priority`
-/// concerns only the discovery thread, which RustDDS keeps apart), the memory, the CPU
-/// latency and the idle pollers, and logs each outcome; returns the CPU latency request
-/// and the pollers, to hold while the node runs.
-fn apply_realtime(
-    rt: &crossym_control::realtime::RealtimeConfig,
-    control: libc::pthread_t,
-    log: &mut NodeLog,
-) -> (
-    Option<crossym_control::realtime::CpuLatencyRequest>,
-    Option<IdlePoll>,
-) {
-    use crossym_control::realtime;
-    let mut outcomes = realtime::apply(rt, control);
-    let mut held = None;
-    if let Some(us) = rt.cpu_latency_us {
-        let (request, outcome) = realtime::request_cpu_latency(us);
-        held = request;
-        outcomes.push(outcome);
-    }
-    let mut pollers = None;
-    if rt.idle_poll {
-        let (p, outcome) = IdlePoll::start();
-        pollers = p;
-        outcomes.push(outcome);
-    }
-    for o in outcomes {
-        let severity = if o.is_refused() {
-            Severity::Warn
-        } else {
-            Severity::Info
-        };
-        log.log(severity, &o.to_string());
-    }
-    (held, pollers)
 }
 
 /// Waits for the control thread's statistics (sent after the final command was
