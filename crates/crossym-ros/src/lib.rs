@@ -10,8 +10,8 @@
 //! - [`idle_poll`]: `[node] realtime.idle_poll`'s pollers, which keep idle CPUs from halting;
 //! - [`realtime`]: `[node] realtime` applied to a process (the node, `crossym ping`);
 //! - [`replay`]: offline replay of a recorded bag through the node core;
-//! - [`tools`]: the DDS clients of the command line: `ping`, `record`, `status` and live
-//!   replay (`play`);
+//! - [`tools`]: the DDS clients of the command line: `ping`, `record`, `status`, `param`
+//!   and live replay (`play`);
 //! - [`sim`]: mock hardware, the physics robot (MuJoCo, out of process), scenarios and
 //!   the stress campaign.
 //!

@@ -6,10 +6,12 @@
 //! - [`ping`]: the joint state → command round trip of a running node (`crossym ping`);
 //! - [`record`]: topics into a rosbag2 MCAP bag (`crossym record`);
 //! - [`status`]: a running node's `~/status`, one line per message (`crossym status`);
+//! - [`param`]: a running node's parameters, get and set (`crossym param`);
 //! - [`play`]: a recorded bag's inputs published at the recorded rate (`crossym replay
 //!   --live`);
 //! - [`stop`]: a flag set by SIGINT or SIGTERM, for the clients that run until stopped.
 
+pub mod param;
 pub mod ping;
 pub mod play;
 pub mod record;
