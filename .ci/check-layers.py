@@ -109,6 +109,9 @@ def referenced_paths(text):
     for m in re.finditer(r"\buse\s+([^;]+);", text):
         paths += expand_use(m.group(1))
     paths += re.findall(r"\b((?:crate|super|self)(?:::[A-Za-z_][A-Za-z0-9_]*)+)", text)
+    # bare paths (`child::Item` names a child module since Rust 2018); `resolve` keeps
+    # those whose first segment is a child of the file's module
+    paths += re.findall(r"(?<![:\w])([a-z_][a-z0-9_]*(?:::[A-Za-z_][A-Za-z0-9_]*)+)", text)
     return paths
 
 
@@ -142,6 +145,8 @@ def resolve(path, here, modules, exported):
             if parts[0] == "super":
                 cur = cur[:-1]
             parts = parts[1:]
+    elif here + (parts[0],) in modules:
+        cur = here
     else:
         return None
     best = cur if cur in modules else None
@@ -161,11 +166,17 @@ def file_graph(src):
     exported = {m: reexports(f.read_text(), m, files) for m, f in files.items()}
     graph = {m: set() for m in files}
     for m, f in files.items():
-        for path in referenced_paths(f.read_text()):
+        # A parent's declarations (`mod child;`) and re-exports (`pub use child::Item;`)
+        # are its structure, not imports; anything else it names of a child is an import,
+        # so a child that names its parent's own items back makes a cycle. Test modules
+        # inside a file (`#[cfg(test)] mod tests { use super::*; … }`) are left out: their
+        # `super` is the file itself.
+        text = strip_test_modules(code_only(f.read_text()))
+        text = re.sub(r"\bpub(?:\([^)]*\))?\s+use\s+[^;]+;", "", text)
+        for path in referenced_paths(text):
             t = resolve(path, m, files, exported)
-            # a parent naming its children (declarations, re-exports) is not an import;
-            # neither is a file naming itself
-            if t is None or t == m or t[:len(m)] == m:
+            # a file naming itself is not an import
+            if t is None or t == m:
                 continue
             graph[m].add(t)
     return files, graph
@@ -366,6 +377,20 @@ def selftest():
         errs = check_files("c", src)[1]
         assert len(errs) == 1 and "x.rs" in errs[0] and "y.rs" in errs[0], errs
     with tempfile.TemporaryDirectory() as d:
+        # parent ↔ child: a parent that re-exports its child and whose items the child uses
+        # is fine; a parent that also uses the child in its own code is a cycle
+        src = Path(d) / "src"
+        (src / "p").mkdir(parents=True)
+        (src / "lib.rs").write_text("pub mod p;\n")
+        (src / "p" / "mod.rs").write_text("mod x;\npub use x::X;\npub struct P;\n"
+                                          "#[cfg(test)]\nmod tests {\n    use super::x::X;\n}\n")
+        (src / "p" / "x.rs").write_text("use super::P;\npub struct X(P);\n"
+                                        "#[cfg(test)]\nmod tests {\n    use super::*;\n}\n")
+        assert check_files("c", src)[1] == [], "a re-export or a test module taken for an import"
+        (src / "p" / "mod.rs").write_text("mod x;\npub struct P;\npub fn f() -> x::X { x::X(P) }\n")
+        errs = check_files("c", src)[1]
+        assert len(errs) == 1 and "p/mod.rs" in errs[0] and "p/x.rs" in errs[0], errs
+    with tempfile.TemporaryDirectory() as d:
         src = Path(d) / "src"
         src.mkdir()
         (src / "lib.rs").write_text("pub use crossym_control::Severity;\npub use self::a::A;\n")
@@ -374,7 +399,8 @@ def selftest():
         assert len(errs) == 1 and "re-exports crossym_control" in errs[0], errs
         (src / "lib.rs").write_text("use crossym_control::Severity;\n// pub use crossym_io::msg;\n")
         assert cross_floor_reexports(pkg) == [], "an import was taken for a re-export"
-    print("selftest ok: an upward crate edge, a file cycle (direct or through a re-export), "
+    print("selftest ok: an upward crate edge, a file cycle (direct, through a re-export, "
+          "or between a parent and its child), "
           "an unused dependency and a cross-floor re-export are caught")
     return 0
 

@@ -213,7 +213,7 @@ pub fn trajectory_mse(
 /// ```
 pub fn pooled_cell(errors: &[TrajectoryError]) -> PaperCell {
     let count = errors.len();
-    let (mean, std) = super::mean_std(&values(errors), 0);
+    let (mean, std) = super::stats::mean_std(&values(errors), 0);
     PaperCell {
         value: mean.sqrt(),
         std,
@@ -234,7 +234,7 @@ pub fn pooled_cell(errors: &[TrajectoryError]) -> PaperCell {
 /// ```
 pub fn resampled_cell(errors: &[TrajectoryError]) -> PaperCell {
     let count = errors.len();
-    let (mean, std) = super::mean_std(&values(errors), 1);
+    let (mean, std) = super::stats::mean_std(&values(errors), 1);
     PaperCell {
         value: mean,
         std,

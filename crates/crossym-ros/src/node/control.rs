@@ -32,9 +32,9 @@ use std::time::{Duration, Instant};
 
 use ros2_client::dds::rustdds::{EventLoopHook, EventLoopWaker};
 
+use super::endpoints::Endpoints;
 use super::record::{RecordItem, Recorder};
 use super::stats::{span_us, Histogram, TickStats};
-use super::Endpoints;
 use crate::dds;
 use crate::event_loop::LoopThread;
 use crossym_control::node::{
@@ -668,53 +668,5 @@ impl ControlThread {
             .status
             .publish(self.core.status().to_msg(stamp, &self.links.names));
         sent
-    }
-}
-
-/// The command writer for the configured output mode.
-pub(super) enum CommandPublisher {
-    Array(ros2_client::Publisher<msg::Float64MultiArray>),
-    Trajectory(ros2_client::Publisher<msg::JointTrajectory>),
-}
-
-impl CommandPublisher {
-    /// The subscribers matched with the writer (`node` created it; ros2-client's
-    /// `Publisher::get_subscription_count`: the remote readers RustDDS matched, updated by
-    /// the spinner from the participant's matched / lost events). Locks the node's map:
-    /// the I/O thread calls it, never the tick.
-    pub(super) fn subscription_count(&self, node: &ros2_client::Node) -> usize {
-        match self {
-            CommandPublisher::Array(p) => p.get_subscription_count(node),
-            CommandPublisher::Trajectory(p) => p.get_subscription_count(node),
-        }
-    }
-
-    /// Publishes `cmd` (and hands a copy to the recorder with the tick time and inputs).
-    pub(super) fn publish(
-        &self,
-        cmd: &Command,
-        names: &[String],
-        dt: f64,
-        start_point: bool,
-        rec: Option<(&Recorder, u64, u32)>,
-    ) -> bool {
-        match self {
-            CommandPublisher::Array(p) => {
-                let m = cmd.to_float64_multi_array();
-                if let Some((r, t, q)) = rec {
-                    r.send(RecordItem::Array(m.clone(), t, q));
-                }
-                p.publish(m).is_ok()
-            }
-            CommandPublisher::Trajectory(p) => {
-                // Stamp 0: the controller starts the trajectory when it receives it (a stamp
-                // from this machine's clock would shift it by any offset between the clocks).
-                let m = cmd.to_joint_trajectory(names, dt, start_point);
-                if let Some((r, t, q)) = rec {
-                    r.send(RecordItem::Trajectory(m.clone(), t, q));
-                }
-                p.publish(m).is_ok()
-            }
-        }
     }
 }

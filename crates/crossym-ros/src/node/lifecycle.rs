@@ -27,8 +27,8 @@ use ros2_client::service::{Server, ServiceMapping};
 use ros2_client::{Name, ServiceTypeName};
 use serde::{Deserialize, Serialize};
 
-use super::DdsError;
 use crate::dds;
+use crate::dds::DdsError;
 
 /// A primary state of a managed node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

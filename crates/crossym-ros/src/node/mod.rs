@@ -20,6 +20,8 @@
 //!   (`stats.rs`).
 
 mod control;
+mod endpoints;
+mod error;
 mod io;
 pub mod lifecycle;
 mod params;
@@ -33,7 +35,9 @@ use std::sync::Arc;
 use std::thread;
 use std::time::Duration;
 
-use self::control::{CommandPublisher, ControlHook, ControlThread, Links};
+use self::control::{ControlHook, ControlThread, Links};
+use self::endpoints::Endpoints;
+pub use self::error::NodeRunError;
 use self::io::IoSide;
 use self::params::Operator;
 pub use self::params::{apply_start_value, check_start_parameter, StartParamRefusal};
@@ -48,22 +52,6 @@ use super::realtime::{apply_realtime, RealtimeHold};
 use crossym_control::node::{InputGate, NodeCore, OutputMode};
 use crossym_control::Severity;
 use crossym_io::bag::BagError;
-use crossym_io::msg;
-
-/// Errors that stop the node process.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum NodeRunError {
-    /// DDS setup failed.
-    #[error(transparent)]
-    Dds(#[from] DdsError),
-    /// The async runtime or a thread could not start.
-    #[error("runtime: {message}")]
-    Runtime {
-        /// What failed.
-        message: String,
-    },
-}
 
 /// Runs the node until SIGINT/SIGTERM (or `stop` is set); returns the tick statistics.
 ///
@@ -202,96 +190,6 @@ pub fn run(
     drop(node);
     runtime.shutdown_timeout(Duration::from_millis(200));
     stats
-}
-
-/// The TF topics' readers.
-struct TfSubscriptions {
-    dynamic: ros2_client::Subscription<msg::TFMessage>,
-    fixed: ros2_client::Subscription<msg::TFMessage>,
-}
-
-impl TfSubscriptions {
-    /// `/tf` and `/tf_static` with tf2's own reader QoS (depth 100; static: transient local).
-    fn create(node: &mut ros2_client::Node) -> Result<Self, DdsError> {
-        let fixed_qos =
-            dds::qos_reliable(100).durability(ros2_client::qos::Durability::TransientLocal);
-        Ok(Self {
-            dynamic: dds::subscription::<msg::TFMessage>(node, "/tf", dds::qos_reliable(100))?,
-            fixed: dds::subscription::<msg::TFMessage>(node, "/tf_static", fixed_qos)?,
-        })
-    }
-}
-
-/// The node's topics: two inputs, the command and the status.
-struct Endpoints {
-    joint_states: ros2_client::Subscription<msg::JointState>,
-    conditions: ros2_client::Subscription<msg::SymmetryCondition>,
-    /// `[node.task_pose]`: the observed object's pose (best effort: matches reliable and
-    /// best-effort perception publishers).
-    poses: Option<ros2_client::Subscription<msg::PoseStamped>>,
-    /// `[node.task_pose] tf`: `/tf` (reliable, volatile) and `/tf_static` (reliable,
-    /// transient local: the static edges published before the node started), read when a
-    /// pose arrives (never registered with the poll: the tree's traffic does not wake the
-    /// control thread).
-    tf: Option<TfSubscriptions>,
-    /// Shared with the I/O thread, which counts its matched subscribers.
-    command: Arc<CommandPublisher>,
-    status: ros2_client::Publisher<msg::Status>,
-}
-
-impl Endpoints {
-    /// Joint states best effort (sensor QoS), everything else reliable (depth 10).
-    fn create(
-        node: &mut ros2_client::Node,
-        cfg: &crossym_control::NodeConfig,
-    ) -> Result<Self, DdsError> {
-        let command = match cfg.output {
-            OutputMode::Velocity | OutputMode::Position => {
-                CommandPublisher::Array(dds::publisher::<msg::Float64MultiArray>(
-                    node,
-                    &cfg.topics.command,
-                    dds::qos_reliable_nonblocking(10),
-                )?)
-            }
-            OutputMode::Trajectory => {
-                CommandPublisher::Trajectory(dds::publisher::<msg::JointTrajectory>(
-                    node,
-                    &cfg.topics.command,
-                    dds::qos_reliable_nonblocking(10),
-                )?)
-            }
-        };
-        Ok(Self {
-            joint_states: dds::subscription::<msg::JointState>(
-                node,
-                &cfg.topics.joint_states,
-                dds::qos_sensor(),
-            )?,
-            conditions: dds::subscription::<msg::SymmetryCondition>(
-                node,
-                &cfg.topics.symmetry_condition,
-                dds::qos_reliable(10),
-            )?,
-            poses: match &cfg.task_pose {
-                Some(p) => Some(dds::subscription::<msg::PoseStamped>(
-                    node,
-                    &p.topic,
-                    dds::qos_sensor(),
-                )?),
-                None => None,
-            },
-            tf: match &cfg.task_pose {
-                Some(p) if p.tf => Some(TfSubscriptions::create(node)?),
-                _ => None,
-            },
-            command: Arc::new(command),
-            status: dds::publisher::<msg::Status>(
-                node,
-                &cfg.topics.status,
-                dds::qos_reliable_nonblocking(10),
-            )?,
-        })
-    }
 }
 
 /// Waits for the control thread's statistics (sent after the final command was

@@ -6,7 +6,7 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::thread;
 
-use super::NodeRunError;
+use super::error::NodeRunError;
 use crate::dds;
 use crossym_control::node::OutputMode;
 use crossym_io::bag::{BagError, BagWriter};

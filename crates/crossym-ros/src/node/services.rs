@@ -12,8 +12,8 @@ use ros2_client::service::{Server, ServiceMapping};
 use ros2_client::{Name, ServiceTypeName};
 use serde::{Deserialize, Serialize};
 
-use super::DdsError;
 use crate::dds;
+use crate::dds::DdsError;
 
 /// `std_srvs/SetBool` request.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

@@ -19,6 +19,8 @@
 //! [`MockHardware`] is the simulation without DDS; [`process`] runs it as a DDS node.
 
 pub mod endurance;
+mod error;
+mod fault;
 pub mod physics;
 pub mod process;
 pub mod scenario;
@@ -30,24 +32,10 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+pub use self::error::MockHwError;
+pub use self::fault::FaultKind;
 use crossym_control::OutputMode;
 use crossym_math::kinematics::{JointLimits, RobotModel};
-
-/// A fault injected after `fault_after_s`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FaultKind {
-    /// The state stops changing; joint states keep being published (stuck encoders).
-    Frozen,
-    /// No more joint states are published (driver crash, cable).
-    Silent,
-    /// The `fault_joint`'s published position is NaN (encoder fault); commands are still
-    /// integrated.
-    NanPosition,
-    /// The `fault_joint` is left out of the published message (a driver dropping a
-    /// joint); commands are still integrated.
-    MissingJoint,
-}
 
 /// `[mock_hw]`: the simulated robot's settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -127,34 +115,6 @@ impl Default for MockHwConfig {
             plant: physics::Plant::Kinematic,
             mujoco: physics::MujocoConfig::default(),
         }
-    }
-}
-
-/// Why the mock hardware cannot start.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum MockHwError {
-    /// A `[mock_hw]` setting is out of its domain.
-    #[error("{message}")]
-    Setting {
-        /// What is wrong (names the key and its value).
-        message: String,
-    },
-    /// The robot does not fit: joint counts, a controlled joint the URDF does not move, a
-    /// non-finite start.
-    #[error("{message}")]
-    Robot {
-        /// What is wrong (names the joint).
-        message: String,
-    },
-}
-
-impl MockHwError {
-    fn setting(message: String) -> Self {
-        Self::Setting { message }
-    }
-    fn robot(message: String) -> Self {
-        Self::Robot { message }
     }
 }
 

@@ -140,7 +140,7 @@ pub struct PhysicsRun<'a> {
     /// Where to write the JSON summary on exit.
     pub summary: Option<&'a Path>,
     /// `[mock_hw] fault`: the published joint states fail while the robot keeps moving.
-    pub fault: Option<super::FaultKind>,
+    pub fault: Option<super::fault::FaultKind>,
     /// `[mock_hw] fault_joint` (NaN or missing); `None`: the first controlled joint.
     pub fault_joint: Option<&'a str>,
     /// `[mock_hw] fault_after_s` (s after start).
@@ -151,9 +151,9 @@ pub struct PhysicsRun<'a> {
 
 impl MujocoConfig {
     /// Checks values; says which is wrong.
-    pub fn validate(&self) -> Result<(), super::MockHwError> {
+    pub fn validate(&self) -> Result<(), super::error::MockHwError> {
         if !["1.0", "1.1", "1.2"].contains(&self.version.as_str()) {
-            return Err(super::MockHwError::setting(format!(
+            return Err(super::error::MockHwError::setting(format!(
                 "version = `{}`: the vendor's models are 1.0, 1.1 and 1.2",
                 self.version
             )));
@@ -165,13 +165,13 @@ impl MujocoConfig {
             ("target_filter_hz", self.target_filter_hz, true),
         ] {
             if !(v.is_finite() && (v > 0.0 || (zero_ok && v == 0.0))) {
-                return Err(super::MockHwError::setting(format!(
+                return Err(super::error::MockHwError::setting(format!(
                     "{k} = {v} must be finite and positive"
                 )));
             }
         }
         if self.freeze_joint.is_some() != self.freeze_after_s.is_some() {
-            return Err(super::MockHwError::setting(
+            return Err(super::error::MockHwError::setting(
                 "freeze_joint and freeze_after_s go together".into(),
             ));
         }
@@ -273,7 +273,7 @@ impl MujocoConfig {
             a.extend(["--summary".into(), s.display().to_string()]);
         }
         if let Some(kind) = run.fault {
-            use super::FaultKind;
+            use super::fault::FaultKind;
             let k = match kind {
                 FaultKind::Frozen => "frozen",
                 FaultKind::Silent => "silent",
@@ -322,7 +322,7 @@ mod tests {
                 position_limits: &[(-1.0, 1.0), (-0.25, 2.0)],
                 rate_hz: 100.0,
                 summary: Some(Path::new("/s.json")),
-                fault: Some(super::super::FaultKind::NanPosition),
+                fault: Some(super::super::fault::FaultKind::NanPosition),
                 fault_joint: Some("b"),
                 fault_after_s: 2.0,
                 fault_duration_s: Some(0.5),
