@@ -641,10 +641,17 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             return report;
         }
         // The controller switched off (the command topic lost its subscribers): hold, and
-        // start again from the measured state when one matches again.
+        // start again from the measured state when one matches again. A driver that went
+        // away altogether (its joint states stale too) is reported as stale: without a
+        // measured state that is the graver fault.
         if self.had_subscriber && self.command_subscribers == Some(0) {
             self.resume = true;
-            return self.braking(now_s, out, StatusCode::NoCommandSubscriber);
+            let code = if fresh {
+                StatusCode::NoCommandSubscriber
+            } else {
+                StatusCode::StaleJointStates
+            };
+            return self.braking(now_s, out, code);
         }
         if !fresh {
             return self.braking(now_s, out, StatusCode::StaleJointStates);
