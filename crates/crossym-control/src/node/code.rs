@@ -47,7 +47,7 @@ pub enum StatusCode {
     /// Lifecycle state not active (inactive, unconfigured or finalized): no command, except
     /// the braking commands after a deactivation until they reach zero.
     Inactive = 26,
-    /// Position modes: every joint stopped while commanded to move (a collision hold): the
+    /// Position modes: every joint commanded to move stopped (a collision hold): the
     /// commands restarted from the measured state and hold there, then the policy is tried
     /// again; reported until a joint moves.
     RobotHeld = 27,
