@@ -376,7 +376,10 @@ class Rby1Sim:
             self.torque_time += at * self.dt
             self.torque_run = np.where(at, self.torque_run + self.dt, 0.0)
             if self.released_s is not None:
-                np.maximum(self.torque_run_after_release, self.torque_run, out=self.torque_run_after_release)
+                # Only the part of a run after the release (a locked joint's actuator pushes
+                # at its limit while the lock lasts: that is the lock, not the release).
+                after = np.minimum(self.torque_run, self.sim_time - self.released_s)
+                np.maximum(self.torque_run_after_release, after, out=self.torque_run_after_release)
 
     def _violation(self, k, kind, value, bound):
         self.violation_count += 1
@@ -614,7 +617,9 @@ def main(argv=None) -> int:
                 break
 
             # faults (wall seconds since start)
-            if args.freeze_joint is not None and sim.freeze is None and elapsed >= args.freeze_after_s:
+            if args.freeze_joint is not None and sim.freeze is None and elapsed >= args.freeze_after_s \
+                    and not any(e["kind"] == "freeze" for e in events):
+                # Once: a released lock stays released.
                 sim.start_freeze(args.freeze_joint, elapsed)
             if args.hold_after_s is not None and sim.hold_q is None and elapsed >= args.hold_after_s \
                     and not any(e["kind"] == "hold" for e in events):

@@ -7,9 +7,12 @@
 //! guarantee itself); no position limit is crossed and no actuator sits at its torque limit
 //! for more than 0.1 s after a release.
 //!
-//! The bounds (from `[node.motion]`'s defaults and RB-Y1's tracking envelope, docs/guide/node.md):
-//! held 0.3 s detection, locked 0.5 s, the driver's return 0.3 s, a lost subscriber 0.5 s —
-//! each plus one status period (0.1 s), the time until `~/status` says it.
+//! The bounds (from `[node.motion]`'s defaults, the servo's response and the node's periods;
+//! derived in docs/guide/node.md, "A held robot, a locked joint, a restarted driver, a
+//! switched-off controller"): held 0.3 s, locked 0.5 s, the driver's return 0.1 s, a lost
+//! subscriber 0.5 s — each plus one status period (0.1 s), the time until `~/status` says
+//! it. With `[node.motion] enabled = false` the held and locked tests fail ("ROBOT_HELD
+//! never reported", "JOINT_LOCKED never reported").
 //!
 //! Run by `.ci/run`'s physics step (one at a time, real time), like `physics::`.
 
@@ -206,14 +209,20 @@ fn physics_collision_hold_is_reported_and_released_smoothly() {
     r.assert_safe("held");
 }
 
-/// `left_arm_3` locked for 1.5 s while the RB-Y1 draws: `JOINT_LOCKED` naming it within
-/// 0.5 s (+ one status period); no limit crossed, no torque spike after the lock releases.
+/// `right_arm_3` (the elbow) locked for 1.5 s while the RB-Y1 draws, at a moment it is
+/// commanded to move (4.0 s into the letter: 0.07–0.1 rad/s, above `[node.motion] speed`):
+/// `JOINT_LOCKED` naming it within 0.5 s (+ one status period); no limit crossed, no
+/// actuator at its torque limit for more than 0.1 s after the lock releases (the locked
+/// actuator pushes at its limit while the lock lasts). The bound is for a joint commanded
+/// faster than `speed`: the issue's `left_arm_3` moves at 0.002–0.036 rad/s in this letter,
+/// where a lock is evidence only once the command has moved it past the `still` band
+/// (docs/guide/node.md).
 #[test]
 #[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
 fn physics_locked_joint_is_named_within_its_bound() {
     let r = demo(
         "physics-locked",
-        "freeze_joint = \"left_arm_3\"\nfreeze_after_s = 4.0\nfreeze_s = 1.5",
+        "freeze_joint = \"right_arm_3\"\nfreeze_after_s = 4.0\nfreeze_s = 1.5",
         "",
         "7",
     );
@@ -229,9 +238,9 @@ fn physics_locked_joint_is_named_within_its_bound() {
         r.node_log
     );
     let s = r.statuses.iter().find(|s| stamp(s) == locked).unwrap();
-    assert_eq!(s.locked_joint, "left_arm_3", "{s:?}");
+    assert_eq!(s.locked_joint, "right_arm_3", "{s:?}");
     assert!(
-        r.node_log.contains("joint `left_arm_3` does not move"),
+        r.node_log.contains("joint `right_arm_3` does not move"),
         "{}",
         r.node_log
     );
@@ -240,7 +249,7 @@ fn physics_locked_joint_is_named_within_its_bound() {
 
 /// The vendor driver restarting (joint states absent for 3 s, the controller's state reset)
 /// and coming back with the arm 0.03 rad away on every joint (moved by hand): stale within
-/// the stale timeout, then a restart from the measured state within 0.3 s (+ one status
+/// the stale timeout, then a restart from the measured state within 0.1 s (+ one status
 /// period) of the first joint state — one tick of `RESTARTED_FROM_MEASURED`, seen in the
 /// status period — with no torque spike and no limit crossed.
 #[test]
@@ -262,14 +271,16 @@ fn physics_driver_restart_restarts_from_the_measured_state() {
         "stale {:.3} s late",
         stale - start
     );
+    // Counted in the status period (its worst code may still be the stale one: the
+    // restart's tick shares the period with the last stale ticks).
     let restarted = r
-        .first(end, |s| s.period_code == 22 && s.period_restarts > 0)
+        .first(end, |s| s.period_restarts > 0)
         .unwrap_or_else(|| panic!("no restart after the driver came back\n{}", r.node_log));
     let delay = restarted - end;
     eprintln!("physics driver restart: restart reported {delay:.3} s after the return");
     assert!(
-        delay <= 0.3 + STATUS_PERIOD_S,
-        "restart {delay:.3} s after the return"
+        delay <= 0.1 + STATUS_PERIOD_S,
+        "restart {delay:.3} s after the return (bound 0.1 s + one status period)"
     );
     assert!(
         !r.statuses
@@ -307,10 +318,12 @@ fn physics_controller_switched_off_is_reported_and_held() {
     let on = r
         .first(end, |s| s.command_subscribers > 0)
         .expect("subscribed again");
+    // The restart shares its status period with the last ticks without a subscriber
+    // (worst code NO_COMMAND_SUBSCRIBER): it shows in the period's restart count.
     assert!(
         r.statuses
             .iter()
-            .any(|s| stamp(s) >= on && s.period_code == 22),
+            .any(|s| stamp(s) >= on && s.period_restarts > 0),
         "no restart from the measured state after the controller came back"
     );
     assert!(r.node_log.contains("no subscriber"), "{}", r.node_log);
