@@ -217,18 +217,17 @@ mod tests {
         "/../../urdf/planar_dual_arm.urdf"
     );
 
-    /// The vendor RB-Y1 URDF (`robots/rby1a/`, shipped), or `None` with a printed
-    /// reason (CI fails on it: `.ci/run` rejects a `SKIP` line).
-    fn rby1_urdf() -> Option<std::path::PathBuf> {
+    /// The vendor RB-Y1 URDF (`robots/rby1a/`, shipped with the repository: its absence is a
+    /// broken checkout, a failure, not a skip).
+    fn rby1_urdf() -> std::path::PathBuf {
         let p =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../robots/rby1a/model.urdf");
-        if !p.exists() {
-            eprintln!(
-                "SKIP: {} absent (shipped in robots/rby1a/: a partial checkout?)",
-                p.display()
-            );
-        }
-        p.exists().then_some(p)
+        assert!(
+            p.exists(),
+            "{} is missing (shipped in robots/rby1a/)",
+            p.display()
+        );
+        p
     }
 
     /// Uniform joint values within `limits` (±3 where a side is unbounded).
@@ -256,9 +255,9 @@ mod tests {
         .expect("planar kinematics")
     }
 
-    /// RB-Y1 arms as in `config/rby1.toml` (plus a tool offset on the right), if the URDF is present.
-    fn rby1() -> Option<Kinematics> {
-        let path = rby1_urdf()?;
+    /// RB-Y1 arms as in `config/rby1.toml` (plus a tool offset on the right).
+    fn rby1() -> Kinematics {
+        let path = rby1_urdf();
         let model = RobotModel::from_urdf_file(path).expect("RB-Y1 loads");
         let mut right = ChainSpec::new("right", "link_torso_5", "ee_right", TaskSpace::Xyz);
         right.tool = ToolOffset {
@@ -274,10 +273,8 @@ mod tests {
             .chain(&["torso_5", "head_0", "head_1"])
             .map(|j| (j.to_string(), 0.0))
             .collect();
-        Some(
-            Kinematics::new(&model, &specs, &held, &KinematicsSettings::default())
-                .expect("RB-Y1 kinematics"),
-        )
+        Kinematics::new(&model, &specs, &held, &KinematicsSettings::default())
+            .expect("RB-Y1 kinematics")
     }
 
     fn candle_fk(kin: &Kinematics) -> CandleFk {
@@ -328,7 +325,7 @@ mod tests {
 
     #[test]
     fn candle_fk_matches_rby1_kinematics() {
-        let Some(kin) = rby1() else { return };
+        let kin = rby1();
         assert_eq!(kin.task_dim(), 6);
         assert_matches_f64(&kin, 2, 1e-5);
     }
@@ -395,7 +392,7 @@ mod tests {
 
     #[test]
     fn candle_fk_gradient_matches_finite_differences_rby1() {
-        let Some(kin) = rby1() else { return };
+        let kin = rby1();
         assert_gradient(&kin, 4);
     }
 
