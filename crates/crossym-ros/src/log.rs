@@ -173,10 +173,10 @@ impl NodeLog {
             .filter(|l| {
                 l.suppressed > 0 && l.last.is_some_and(|t| now.duration_since(t) >= interval)
             })
-            .map(|l| {
-                l.last = Some(now);
-                (l.kind, l.severity, std::mem::take(&mut l.suppressed))
-            })
+            // The window is not restarted: the next event of the kind is printed in full at
+            // once (restarting it here hid a second's events of another reason, e.g. a pose
+            // rejected for its frame after one rejected for its stamp).
+            .map(|l| (l.kind, l.severity, std::mem::take(&mut l.suppressed)))
             .collect();
         for (kind, severity, n) in due {
             self.log(
@@ -590,5 +590,10 @@ mod tests {
         );
         log.flush_due_at(at(3000)); // nothing left
         assert_eq!(lines.lock().unwrap().len(), 3);
+        // A flush does not start a new window: the next event is printed in full at once.
+        log.limited_at("restart", Severity::Warn, "restarted again", at(1100));
+        let l = lines.lock().unwrap().clone();
+        assert_eq!(l.len(), 4, "{l:?}");
+        assert!(l[3].ends_with("restarted again"), "{}", l[3]);
     }
 }
