@@ -33,7 +33,9 @@ fn rby1_config(name: &str, dir: &Path, edit: &[(&str, &str)]) -> PathBuf {
     p
 }
 
-fn require_physics() {
+/// The physics robot's Python packages and the vendor's MuJoCo model (both physics test
+/// modules).
+pub(super) fn require_physics() {
     let ok = std::process::Command::new("python3")
         .args(["-c", "import mujoco, cyclonedds.domain"])
         .status()

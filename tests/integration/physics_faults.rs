@@ -21,25 +21,11 @@ use std::path::{Path, PathBuf};
 use crossym::bag::Bag;
 use crossym::msg;
 
-use super::common::{crossym, rby1_dir, root, temp_dir};
+use super::common::{crossym, root, temp_dir};
+use super::physics::require_physics;
 
 /// One status period of the RB-Y1 configs (s): the time `~/status` may take to say it.
 const STATUS_PERIOD_S: f64 = 0.1;
-
-fn require_physics() {
-    let ok = std::process::Command::new("python3")
-        .args(["-c", "import mujoco, cyclonedds.domain"])
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(
-        ok,
-        "python3 cannot import mujoco and cyclonedds: run `bash physics/install.sh`"
-    );
-    assert!(
-        rby1_dir().join("vendor-sdk/mujoco/model_act.xml").exists(),
-        "the vendor's MuJoCo model is missing: robots/rby1a/vendor-sdk/mujoco"
-    );
-}
 
 /// `config/rby1-letters.toml` with absolute paths, `mujoco` added to `[mock_hw.mujoco]` and
 /// `node` to `[node]`.
