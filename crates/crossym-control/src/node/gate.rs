@@ -280,3 +280,348 @@ impl InputGate {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! The gate's refusals, each checked against a message built to break exactly one rule
+    //! (the expected verdict is written here from the rules in the module docs of
+    //! `crate::node`, not asked of the gate's helpers): a refused message changes nothing
+    //! but the rejection record, an accepted one is mapped by name.
+
+    use std::f64::consts::PI;
+
+    use crossym_io::msg::{Header, JointState, SymmetryCondition, Time};
+    use crossym_policy::DomainViolation;
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config as ProptestConfig, RngSeed};
+
+    use super::*;
+
+    /// Fixed seed, fixed case count, no persistence files in the tree.
+    fn config(cases: u32) -> ProptestConfig {
+        ProptestConfig {
+            cases,
+            failure_persistence: None,
+            rng_seed: RngSeed::Fixed(54),
+            ..ProptestConfig::default()
+        }
+    }
+
+    const TIMEOUT_S: f64 = 0.1;
+
+    fn controlled(n: usize) -> Vec<String> {
+        (0..n).map(|j| format!("arm_{j}")).collect()
+    }
+
+    fn gate(n: usize) -> InputGate {
+        let cfg = NodeConfig {
+            stale_timeout_s: TIMEOUT_S,
+            check_stamps: true,
+            ..NodeConfig::default()
+        };
+        InputGate::new(&controlled(n), &cfg)
+    }
+
+    /// A joint state: `(name, position)` pairs in message order, stamped `stamp_s` (0: none).
+    fn joint_state(pairs: &[(String, f64)], stamp_s: f64) -> JointState {
+        JointState {
+            header: Header {
+                stamp: Time::from_secs_f64(stamp_s),
+                frame_id: String::new(),
+            },
+            name: pairs.iter().map(|(n, _)| n.clone()).collect(),
+            position: pairs.iter().map(|(_, p)| *p).collect(),
+            ..Default::default()
+        }
+    }
+
+    /// What a refusal may change: the flag, the count and the last error.
+    fn after_refusal(before: &Inputs, r: Rejection, joint_state: bool) -> Inputs {
+        let mut i = before.clone();
+        i.last_error = Some(r);
+        if joint_state {
+            i.joint_state_rejected = true;
+            i.rejected_joint_states += 1;
+        } else {
+            i.condition_rejected = true;
+            i.rejected_conditions += 1;
+        }
+        i
+    }
+
+    /// A valid message for `n` controlled joints: the controlled joints in the order
+    /// `order`, other joints (torso, wheels; any value, even NaN) mixed in.
+    fn valid_state(n: usize) -> impl Strategy<Value = (Vec<(String, f64)>, Vec<f64>)> {
+        (
+            prop::collection::vec(-3.0..3.0f64, n),
+            Just((0..n).collect::<Vec<usize>>()).prop_shuffle(),
+            prop::collection::vec(
+                prop_oneof![Just(f64::NAN), Just(f64::INFINITY), -9.0..9.0f64],
+                0..4,
+            ),
+        )
+            .prop_map(|(q, order, extras)| {
+                let mut pairs: Vec<(String, f64)> =
+                    order.iter().map(|&j| (format!("arm_{j}"), q[j])).collect();
+                for (k, x) in extras.into_iter().enumerate() {
+                    pairs.insert(k * 2 % (pairs.len() + 1), (format!("torso_{k}"), x));
+                }
+                (pairs, q)
+            })
+    }
+
+    /// One broken rule of a joint state.
+    #[derive(Debug, Clone)]
+    enum Break {
+        /// The controlled joint at this index is not finite.
+        NonFinite(usize, f64),
+        /// The controlled joint at this index is not in the message.
+        Missing(usize),
+        /// The controlled joint at this index appears a second time.
+        Duplicate(usize),
+        /// One position more or fewer than names.
+        Length(bool),
+        /// Stamped this long (s) beyond the stale timeout.
+        Stale(f64),
+    }
+
+    fn breaks(n: usize) -> impl Strategy<Value = Break> {
+        prop_oneof![
+            (
+                0..n,
+                prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY)]
+            )
+                .prop_map(|(j, x)| Break::NonFinite(j, x)),
+            (0..n).prop_map(Break::Missing),
+            (0..n).prop_map(Break::Duplicate),
+            any::<bool>().prop_map(Break::Length),
+            (1e-3..1e3f64).prop_map(Break::Stale),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(config(128))]
+
+        /// Controlled joints are taken by name, whatever their order and the other joints
+        /// around them; the measurement time is the stamp when older than the receipt.
+        #[test]
+        fn a_valid_joint_state_is_mapped_by_name(
+            (pairs, q) in (1usize..8).prop_flat_map(valid_state),
+            now in 10.0..1e4f64,
+            age in prop_oneof![Just(None), (0.0..TIMEOUT_S).prop_map(Some)],
+        ) {
+            let mut g = gate(q.len());
+            let m = joint_state(&pairs, age.map_or(0.0, |a| now - a));
+            prop_assert_eq!(g.on_joint_state(&m, now), Ok(()));
+            let i = g.inputs();
+            prop_assert_eq!(&i.q, &q);
+            prop_assert_eq!(i.state_time_s, Some(now));
+            prop_assert_eq!(i.joint_state_seq, 1);
+            prop_assert!(!i.joint_state_rejected && i.last_error.is_none());
+            let stamp = m.header.stamp.as_secs_f64();
+            let measured = if age.is_some() && stamp < now { stamp } else { now };
+            prop_assert_eq!(i.measured_time_s, measured);
+        }
+
+        /// A joint state that breaks one rule is refused for that rule and leaves the
+        /// inputs as they were (the last valid state stays in force).
+        #[test]
+        fn a_broken_joint_state_is_refused_and_changes_nothing(
+            (n, first, (pairs, _), broken) in (1usize..8).prop_flat_map(|n| {
+                (Just(n), valid_state(n), valid_state(n), breaks(n))
+            }),
+            now in 10.0..1e4f64,
+        ) {
+            let mut g = gate(n);
+            prop_assert_eq!(g.on_joint_state(&joint_state(&first.0, now - 0.01), now), Ok(()));
+            let before = g.inputs().clone();
+            let name = |j: usize| format!("arm_{j}");
+            let mut pairs = pairs;
+            let mut stamp = now - 0.5 * TIMEOUT_S;
+            match broken {
+                Break::NonFinite(j, x) => {
+                    pairs.iter_mut().find(|(n, _)| *n == name(j)).unwrap().1 = x;
+                }
+                Break::Missing(j) => pairs.retain(|(n, _)| *n != name(j)),
+                Break::Duplicate(j) => pairs.push((name(j), 0.5)),
+                Break::Stale(beyond) => stamp = now - TIMEOUT_S - beyond,
+                Break::Length(_) => {}
+            }
+            let mut m = joint_state(&pairs, stamp);
+            let expected = match broken {
+                Break::NonFinite(j, _) => Rejection::NonFinitePosition { joint: j },
+                Break::Missing(j) => Rejection::MissingJoint { joint: j },
+                Break::Duplicate(j) => Rejection::DuplicateJoint { joint: j },
+                Break::Stale(_) => Rejection::StaleStamp,
+                Break::Length(more) => {
+                    if more { m.position.push(0.0) } else { m.position.pop(); }
+                    Rejection::LengthMismatch { names: m.name.len(), positions: m.position.len() }
+                }
+            };
+            prop_assert_eq!(g.on_joint_state(&m, now), Err(expected));
+            prop_assert_eq!(g.inputs(), &after_refusal(&before, expected, true));
+        }
+
+        /// A condition is accepted exactly when `θ` is finite, `λ` finite and positive,
+        /// `σ = ±1` and, with a trained domain, inside it; a refused one leaves the
+        /// previous condition in force.
+        #[test]
+        fn conditions_are_refused_for_the_first_rule_they_break(
+            theta in prop_oneof![
+                3 => -PI..PI,
+                1 => prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(f64::NEG_INFINITY)],
+            ],
+            scale in prop_oneof![
+                3 => 0.05..3.0f64,
+                1 => prop_oneof![
+                    Just(0.0), Just(-1.0), Just(f64::NAN), Just(f64::INFINITY), -3.0..0.0f64
+                ],
+            ],
+            reflection in prop_oneof![3 => prop_oneof![Just(1i8), Just(-1)], 1 => any::<i8>()],
+            domain in prop_oneof![
+                Just(None),
+                (0.1..3.0f64, 0.2..1.0f64, 1.0..2.0f64, any::<bool>()).prop_map(
+                    |(t, lo, hi, r)| Some(ConditionDomain {
+                        max_abs_theta: t,
+                        scale_min: lo,
+                        scale_max: hi,
+                        reflection: r,
+                    })
+                ),
+            ],
+        ) {
+            let mut g = gate(2).with_domain(domain);
+            let m = SymmetryCondition { theta, scale, reflection, ..Default::default() };
+            let expected = if !theta.is_finite() {
+                Some(Rejection::InvalidTheta)
+            } else if !(scale.is_finite() && scale > 0.0) {
+                Some(Rejection::InvalidScale)
+            } else if reflection != 1 && reflection != -1 {
+                Some(Rejection::InvalidReflection { value: reflection })
+            } else {
+                domain.and_then(|d| {
+                    let part = if theta.abs() > d.max_abs_theta {
+                        DomainViolation::Theta
+                    } else if scale < d.scale_min || scale > d.scale_max {
+                        DomainViolation::Scale
+                    } else if reflection == -1 && !d.reflection {
+                        DomainViolation::Reflection
+                    } else {
+                        return None;
+                    };
+                    Some(Rejection::UntrainedCondition { part })
+                })
+            };
+            let before = g.inputs().clone();
+            match expected {
+                Some(r) => {
+                    prop_assert_eq!(g.on_condition(&m), Err(r));
+                    prop_assert_eq!(g.inputs(), &after_refusal(&before, r, false));
+                }
+                None => {
+                    prop_assert_eq!(g.on_condition(&m), Ok(()));
+                    let c = g.inputs().condition;
+                    prop_assert_eq!((c.theta, c.scale, c.reflection), (theta, scale, reflection));
+                    prop_assert_eq!(g.inputs().condition_seq, 1);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stamps_are_checked_only_when_asked_and_present() {
+        let names = controlled(2);
+        let pairs = [(names[0].clone(), 0.1), (names[1].clone(), 0.2)];
+        let now = 100.0;
+        // Stale by a second: refused with checks on, accepted with checks off.
+        let old = joint_state(&pairs, now - 1.0);
+        assert_eq!(
+            gate(2).on_joint_state(&old, now),
+            Err(Rejection::StaleStamp)
+        );
+        let cfg = NodeConfig {
+            check_stamps: false,
+            ..NodeConfig::default()
+        };
+        let mut unchecked = InputGate::new(&names, &cfg);
+        assert_eq!(unchecked.on_joint_state(&old, now), Ok(()));
+        assert_eq!(unchecked.inputs().measured_time_s, now, "receipt time");
+        // No stamp (zero): accepted, measured at receipt.
+        let mut g = gate(2);
+        assert_eq!(g.on_joint_state(&joint_state(&pairs, 0.0), now), Ok(()));
+        assert_eq!(g.inputs().measured_time_s, now);
+        // A clock that is not a number makes every stamp's age unknown: refused.
+        let fresh = joint_state(&pairs, now);
+        assert_eq!(
+            g.on_joint_state(&fresh, f64::NAN),
+            Err(Rejection::StaleStamp)
+        );
+        // A stamp from the future is measured at receipt, never later.
+        let ahead = joint_state(&pairs, now + 5.0);
+        assert_eq!(g.on_joint_state(&ahead, now), Ok(()));
+        assert_eq!(g.inputs().measured_time_s, now);
+        // A longer stale timeout (runtime parameter) lets the old state through.
+        g.set_stale_timeout(2.0);
+        assert_eq!(g.on_joint_state(&old, now), Ok(()));
+        assert_eq!(g.inputs().measured_time_s, old.header.stamp.as_secs_f64());
+    }
+
+    #[test]
+    fn a_republished_state_keeps_the_time_of_its_first_receipt() {
+        let names = controlled(1);
+        let m = joint_state(&[(names[0].clone(), 0.3)], 99.99);
+        let mut g = gate(1);
+        assert_eq!(g.on_joint_state(&m, 100.0), Ok(()));
+        let first = g.inputs().measured_time_s;
+        assert_eq!(first, m.header.stamp.as_secs_f64());
+        // The same stamp again, 50 ms later: the same measurement, not a fresh one.
+        assert_eq!(g.on_joint_state(&m, 100.05), Ok(()));
+        assert_eq!(g.inputs().measured_time_s, first);
+        assert_eq!(g.inputs().state_time_s, Some(100.05));
+        // Past the timeout since its stamp it is stale, however often it is repeated.
+        assert_eq!(g.on_joint_state(&m, 100.2), Err(Rejection::StaleStamp));
+    }
+
+    #[test]
+    fn untrained_conditions_follow_the_runtime_parameter() {
+        let trained = ConditionDomain {
+            max_abs_theta: 0.5,
+            scale_min: 0.8,
+            scale_max: 1.2,
+            reflection: false,
+        };
+        let mut g = gate(1)
+            .with_trained_domain(Some(trained))
+            .with_domain(Some(trained));
+        let wide = SymmetryCondition {
+            theta: 1.0,
+            scale: 1.0,
+            reflection: 1,
+            ..Default::default()
+        };
+        let part = DomainViolation::Theta;
+        assert_eq!(
+            g.on_condition(&wide),
+            Err(Rejection::UntrainedCondition { part })
+        );
+        assert_eq!(g.inputs().condition, Condition::IDENTITY);
+        g.set_accept_untrained(true);
+        assert_eq!(g.on_condition(&wide), Ok(()));
+        g.set_accept_untrained(false);
+        let mirrored = SymmetryCondition {
+            reflection: -1,
+            ..wide
+        };
+        let part = DomainViolation::Reflection;
+        assert_eq!(
+            g.on_condition(&SymmetryCondition {
+                theta: 0.1,
+                ..mirrored
+            }),
+            Err(Rejection::UntrainedCondition { part })
+        );
+        // The refused condition left the accepted one in force.
+        assert_eq!(g.inputs().condition.theta, 1.0);
+        assert_eq!(g.inputs().rejected_conditions, 2);
+    }
+}
