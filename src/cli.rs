@@ -25,6 +25,7 @@ mod ping;
 mod record;
 mod replay;
 mod rollout;
+mod security;
 mod status;
 mod stress;
 mod symmetries;
@@ -116,6 +117,10 @@ enum Command {
     /// Transfer and compose the configured symmetries and print the numerical checks.
     /// Exits 1 when a requested composition is impossible or a transfer fails.
     Check(check::CheckArgs),
+    /// SROS2 keystores without the ROS tools (like `ros2 security`): create-keystore,
+    /// create-enclave, create-permission from a policy file, generate-artifacts,
+    /// list-enclaves (cargo feature `security`).
+    Security(security::SecurityArgs),
 }
 
 impl Cli {
@@ -154,5 +159,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Replay(a) => replay::run(a),
         Command::MockHw(a) => mock_hw::run(a),
         Command::Check(a) => check::run(a),
+        Command::Security(a) => security::run(a),
     }
 }

@@ -40,6 +40,9 @@ mod reference;
 mod ros;
 mod ros_args;
 mod safety;
+// Needs the `security` feature (SROS2 keystores, OpenSSL; CI: --all-features).
+#[cfg(feature = "security")]
+mod security;
 mod servo;
 mod sim;
 #[path = "../support/skip.rs"]

@@ -12,6 +12,8 @@
 //! - [`replay`]: offline replay of a recorded bag through the node core;
 //! - [`tools`]: the DDS clients of the command line: `ping`, `record`, `status`, `param`
 //!   and live replay (`play`);
+//! - `security` (cargo feature `security`): SROS2 keystores — the CA, enclaves, governance
+//!   and permissions from sros2 policy files, signed as sros2 signs them;
 //! - [`sim`]: mock hardware, the physics robot (MuJoCo, out of process), scenarios and
 //!   the stress campaign.
 //!
@@ -41,5 +43,7 @@ pub mod node;
 pub mod realtime;
 pub mod replay;
 pub mod ros_args;
+#[cfg(feature = "security")]
+pub mod security;
 pub mod sim;
 pub mod tools;
