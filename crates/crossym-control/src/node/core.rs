@@ -996,7 +996,20 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     /// worst code and counts start from here.
     pub fn end_status_period(&mut self) {
         let totals = self.event_totals();
-        self.period.restart(totals);
+        self.period.restart(totals, false);
+    }
+
+    /// Whether a tick since the last status had a code more severe than that status's
+    /// worst: publish the status now and end the period with
+    /// [`Self::end_status_period_early`] (see [`StatusPeriod::escalated`]).
+    pub fn status_escalated(&self) -> bool {
+        self.period.escalated()
+    }
+
+    /// Ends the status period early, after a status published at an escalation.
+    pub fn end_status_period_early(&mut self) {
+        let totals = self.event_totals();
+        self.period.restart(totals, true);
     }
 
     /// The number of subscribers matched on the command topic (from the DDS graph, between

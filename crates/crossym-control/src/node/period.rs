@@ -4,7 +4,16 @@
 //!
 //! Codes are ranked by [`StatusCode::severity`]; the counts are differences of the node's
 //! running totals ([`EventTotals`]) against their values at the start of the period.
+//!
+//! A new fault is not kept for the period's end: when a tick's code is a fault (not the
+//! filter's shaping nor a restart from the measured state) more severe than the worst code
+//! of the last status published, the period is [`escalated`] and the node
+//! publishes its status at once, ending the period early (at most once per period, so a
+//! flapping code costs at most two statuses a period). A robot found held is therefore
+//! on `~/status` at the tick that found it, not up to `status_period_s` later.
 //! Allocation-free.
+//!
+//! [`escalated`]: StatusPeriod::escalated
 
 use super::code::StatusCode;
 
@@ -63,6 +72,10 @@ pub struct StatusPeriod {
     worst: Option<StatusCode>,
     ticks: u32,
     base: EventTotals,
+    /// The severity of the worst code of the last status published.
+    reported: u8,
+    /// This period began with a status published early (at an escalation).
+    early: bool,
 }
 
 impl Default for StatusPeriod {
@@ -78,6 +91,8 @@ impl StatusPeriod {
             worst: None,
             ticks: 0,
             base: EventTotals::default(),
+            reported: 0,
+            early: false,
         }
     }
 
@@ -104,11 +119,30 @@ impl StatusPeriod {
         )
     }
 
-    /// Starts the next period at `totals`.
-    pub fn restart(&mut self, totals: EventTotals) {
+    /// Whether a tick of this period had a code more severe than the worst code of the last
+    /// status published, and this period did not begin early: its status is due now. The
+    /// filter's shaping (`JOINT_BOUND`, `DECELERATE_FOR_*`) is no fault, and a restart from
+    /// the measured state (`RESTARTED_FROM_MEASURED`, e.g. after the robot was moved) is the
+    /// node's own recovery: they wait for the period's end (its code and counts).
+    pub fn escalated(&self) -> bool {
+        !self.early
+            && self.worst.is_some_and(|w| {
+                w.severity() > self.reported
+                    && w.severity() >= StatusCode::HaltForSingularity.severity()
+                    && w != StatusCode::RestartedFromMeasured
+            })
+    }
+
+    /// Starts the next period at `totals`, after the status of this one was published
+    /// (`early`: at an escalation, before the period's end).
+    pub fn restart(&mut self, totals: EventTotals, early: bool) {
+        if let Some(w) = self.worst {
+            self.reported = w.severity();
+        }
         self.worst = None;
         self.ticks = 0;
         self.base = totals;
+        self.early = early;
     }
 }
 
@@ -135,7 +169,7 @@ mod tests {
         assert_eq!(worst, StatusCode::RestartedFromMeasured);
         assert_eq!(ticks, 4);
         assert_eq!(counts.restarts, 3);
-        p.restart(totals);
+        p.restart(totals, false);
         let (worst, ticks, counts) = p.report(StatusCode::NoWarning, &totals);
         assert_eq!(
             (worst, ticks, counts),
@@ -147,6 +181,52 @@ mod tests {
             p.report(StatusCode::NoWarning, &totals).0,
             StatusCode::RobotHeld
         );
+    }
+
+    #[test]
+    fn a_new_fault_is_due_at_once_once_a_period() {
+        let t = EventTotals::default();
+        let (held, stale) = (StatusCode::RobotHeld, StatusCode::RobotNotFollowing);
+        assert!(stale.severity() > held.severity());
+        let mut p = StatusPeriod::new();
+        p.observe(StatusCode::NoWarning);
+        assert!(!p.escalated(), "nothing new");
+        p.observe(held);
+        assert!(
+            p.escalated(),
+            "a fault worse than the last status is due now"
+        );
+        p.restart(t, true);
+        p.observe(held);
+        assert!(!p.escalated(), "the same fault again is not news");
+        p.observe(stale);
+        assert!(
+            !p.escalated(),
+            "a second escalation in a period that began early waits for the period's end"
+        );
+        p.restart(t, false);
+        p.observe(held);
+        assert!(!p.escalated(), "less severe than the last status");
+        p.observe(stale);
+        assert!(!p.escalated(), "as severe as the last status");
+        // Back to normal, then the fault again: news.
+        p.restart(t, false);
+        p.observe(StatusCode::NoWarning);
+        p.restart(t, false);
+        p.observe(held);
+        assert!(p.escalated());
+        // The filter's shaping and the node's own restart wait for the period's end.
+        let mut p = StatusPeriod::new();
+        p.observe(StatusCode::JointBound);
+        p.observe(StatusCode::DecelerateForSingularity);
+        assert!(!p.escalated());
+        p.observe(StatusCode::HaltForSingularity);
+        assert!(p.escalated());
+        let mut p = StatusPeriod::new();
+        p.observe(StatusCode::RestartedFromMeasured);
+        assert!(!p.escalated());
+        p.observe(StatusCode::InvalidInput);
+        assert!(p.escalated());
     }
 
     #[test]

@@ -376,9 +376,13 @@ impl ControlThread {
             }
             Trigger::JointStates => t0 + period,
         };
-        if t0 >= self.run.next_status {
-            self.run.next_status = t0 + self.run.status_period;
-            if !self.publish_status() {
+        // The period's status at its end; a new fault's at once (once a period).
+        let due = t0 >= self.run.next_status;
+        if due || self.core.status_escalated() {
+            if due {
+                self.run.next_status = t0 + self.run.status_period;
+            }
+            if !self.publish_status(!due) {
                 self.run.stats.publish_errors += 1;
             }
         }
@@ -639,11 +643,16 @@ impl ControlThread {
     }
 
     /// Publishes `~/status` (and hands the snapshot to the log) and starts the next status
-    /// period; false on a publish error.
-    fn publish_status(&mut self) -> bool {
+    /// period (`early`: at an escalation, before the period's end); false on a publish
+    /// error.
+    fn publish_status(&mut self, early: bool) -> bool {
         let stamp_ns = dds::wall_time_ns();
         let snap = self.core.status();
-        self.core.end_status_period();
+        if early {
+            self.core.end_status_period_early();
+        } else {
+            self.core.end_status_period();
+        }
         self.tell(ToIo::Status(snap));
         let m = snap.to_msg(
             msg::Time::from_secs_f64(stamp_ns as f64 * 1e-9),
