@@ -194,6 +194,11 @@ def main() -> int:
                 locked_events=0,
                 locked_joint='',
                 command_subscribers=1,
+                late_ticks=0,
+                missed_ticks=0,
+                period_late_ticks=0,
+                period_missed_ticks=0,
+                tick_late_max_us=0.0,
             )))
     events.sort(key=lambda e: (e[0], e[1]))
 

@@ -98,6 +98,11 @@ class Status(IdlStruct, typename="crossym_msgs::msg::dds_::Status_"):
     locked_events: types.uint64 = 0
     locked_joint: str = ""
     command_subscribers: types.int32 = -1
+    late_ticks: types.uint64 = 0
+    missed_ticks: types.uint64 = 0
+    period_late_ticks: types.uint32 = 0
+    period_missed_ticks: types.uint32 = 0
+    tick_late_max_us: types.float64 = 0.0
 
 
 # crossym_msgs/Status constants
@@ -739,7 +744,8 @@ def _cdr_expected_bytes():
                 paused=True, velocity_scale=0.5, singularity_condition=12.5, singularity_factor=0.75,
                 period_code=22, period_ticks=10, period_restarts=1, period_held=2, period_locked=3,
                 period_rejected=4, period_stale_ticks=5, period_fallback_ticks=6, held_events=13,
-                locked_events=14, locked_joint="j", command_subscribers=1)
+                locked_events=14, locked_joint="j", command_subscribers=1, late_ticks=15,
+                missed_ticks=16, period_late_ticks=2, period_missed_ticks=3, tick_late_max_us=6.5)
     b = struct.pack("<iI", 5, 6)
     b = s(b, "")
     b += struct.pack("<b", 17)
@@ -757,6 +763,8 @@ def _cdr_expected_bytes():
     b = align(b, 8) + struct.pack("<QQ", 13, 14)
     b = s(b, "j")
     b = align(b, 4) + struct.pack("<i", 1)
+    b = align(b, 8) + struct.pack("<QQII", 15, 16, 2, 3)
+    b = align(b, 8) + struct.pack("<d", 6.5)
     out.append(("Status", st, enc + b))
     return out
 

@@ -506,6 +506,16 @@ pub struct Status {
     pub locked_joint: String,
     /// Subscribers matched on the command topic (−1: not known).
     pub command_subscribers: i32,
+    /// Ticks started more than half a period late since start (count).
+    pub late_ticks: u64,
+    /// Ticks never run since start: timer ticks skipped, joint states ticked together (count).
+    pub missed_ticks: u64,
+    /// Late ticks since the previous status (count).
+    pub period_late_ticks: u32,
+    /// Missed ticks since the previous status (count).
+    pub period_missed_ticks: u32,
+    /// Largest lateness of a tick's start since start (µs).
+    pub tick_late_max_us: f64,
 }
 
 ros_message!(

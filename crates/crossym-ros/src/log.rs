@@ -312,6 +312,24 @@ impl StatusWatch {
                 ),
             );
         }
+        // A loaded computer: ticks late or never run in the status period.
+        if s.period.late_ticks > 0 || s.period.missed_ticks > 0 {
+            log.limited(
+                "ticks_late",
+                Severity::Warn,
+                &format!(
+                    "{} tick(s) started more than half a period late and {} never ran since the \
+                     last status ({} late, {} missed in all; the latest start so far {:.1} ms \
+                     after its time): is the computer loaded? (`[node] realtime`, \
+                     docs/guide/node.md)",
+                    s.period.late_ticks,
+                    s.period.missed_ticks,
+                    s.late_ticks,
+                    s.missed_ticks,
+                    s.tick_late_max_us * 1e-3
+                ),
+            );
+        }
         // The robot not following is an error, logged when it begins (and again, at most
         // once a second, while it lasts).
         if s.not_following_ticks > prev.not_following_ticks {
@@ -488,6 +506,9 @@ mod tests {
             locked_events: 0,
             locked_joint: None,
             command_subscribers: None,
+            late_ticks: 0,
+            missed_ticks: 0,
+            tick_late_max_us: 0.0,
         };
         w.observe(&s, &mut log); // no state yet
         w.observe(&s, &mut log); // unchanged: nothing
@@ -568,6 +589,22 @@ mod tests {
         assert!(l[10].contains("joint `a1` does not move"), "{}", l[10]);
         assert!(l[11].contains("no subscriber"), "{}", l[11]);
         assert!(l[12].contains("2 subscriber(s) again"), "{}", l[12]);
+        // A loaded computer: a period with late and missed ticks warns, a quiet one not.
+        s.period.late_ticks = 2;
+        s.period.missed_ticks = 1;
+        (s.late_ticks, s.missed_ticks, s.tick_late_max_us) = (2, 1, 12_500.0);
+        w.observe(&s, &mut log);
+        s.period = Default::default();
+        w.observe(&s, &mut log);
+        let l = lines.lock().unwrap().clone();
+        assert_eq!(l.len(), 14, "{l:?}");
+        assert!(
+            l[13].contains("[WARN]")
+                && l[13].contains("2 tick(s) started more than half a period late and 1 never ran")
+                && l[13].contains("12.5 ms"),
+            "{}",
+            l[13]
+        );
     }
 
     #[test]

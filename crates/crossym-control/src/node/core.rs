@@ -24,6 +24,7 @@ use super::singularity::{SingularityBand, SingularityReport, SingularityStatus};
 use super::stage::{OutputStage, PolicyOutput};
 use super::status::StatusSnapshot;
 use super::status::TickReport;
+use super::timing::TickTiming;
 use crate::safety::history::{CommandHistory, CommandWindow};
 use crate::safety::{
     Anchor, Barrier, BoundRules, ExactBounds, SafetyFilter, SafetyReport, SafetySettings,
@@ -109,8 +110,7 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     infeasible_ticks: u64,
     active: u32,
     age_s: f64,
-    tick_time_us: f64,
-    tick_time_max_us: f64,
+    timing: TickTiming,
     period: StatusPeriod,
 }
 
@@ -268,8 +268,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             infeasible_ticks: 0,
             active: 0,
             age_s: -1.0,
-            tick_time_us: 0.0,
-            tick_time_max_us: 0.0,
+            timing: TickTiming::new(cfg.period_s),
             period: StatusPeriod::new(),
             cfg,
             kin,
@@ -935,10 +934,13 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
 
     /// Records the caller-measured duration of the last tick (µs).
     pub fn record_tick_time(&mut self, us: f64) {
-        if us.is_finite() {
-            self.tick_time_us = us;
-            self.tick_time_max_us = self.tick_time_max_us.max(us);
-        }
+        self.timing.record_duration(us);
+    }
+
+    /// Records, before a tick, how late (s) it starts after its time and how many ticks
+    /// never ran before it ([`TickTiming::record_start`]).
+    pub fn record_tick_start(&mut self, late_s: f64, missed: u32) {
+        self.timing.record_start(late_s, missed);
     }
 
     /// Snapshot for the Status message.
@@ -962,8 +964,11 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             not_following_ticks: self.not_following_ticks,
             tracking_warning_ticks: self.tracking_warning_ticks,
             tracking_error: self.tracking_error,
-            tick_time_us: self.tick_time_us,
-            tick_time_max_us: self.tick_time_max_us,
+            tick_time_us: self.timing.last_us,
+            tick_time_max_us: self.timing.max_us,
+            late_ticks: self.timing.late,
+            missed_ticks: self.timing.missed,
+            tick_late_max_us: self.timing.late_max_us,
             condition: self.gate.inputs.condition,
             paused: self.paused,
             velocity_scale: self.velocity_scale,
@@ -989,6 +994,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             rejected: u64::from(i.rejected_joint_states) + u64::from(i.rejected_conditions),
             stale_ticks: self.stale_ticks,
             fallback_ticks: self.fallback_ticks,
+            late_ticks: self.timing.late,
+            missed_ticks: self.timing.missed,
         }
     }
 

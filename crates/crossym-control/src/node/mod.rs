@@ -46,6 +46,7 @@ mod stage;
 mod status;
 mod task_pose;
 mod tf;
+mod timing;
 
 pub use self::code::StatusCode;
 pub use self::command::Command;
@@ -67,3 +68,4 @@ pub use self::task_pose::{
     PoseCondition, PoseRejection, TaskPoseConfig, TaskPoseConfigError, TaskPoseMap,
 };
 pub use self::tf::{TfBuffer, TfError};
+pub use self::timing::TickTiming;

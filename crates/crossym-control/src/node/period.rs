@@ -32,6 +32,10 @@ pub struct EventTotals {
     pub stale_ticks: u64,
     /// Safety fallbacks.
     pub fallback_ticks: u64,
+    /// Ticks started more than half a period late.
+    pub late_ticks: u64,
+    /// Ticks never run.
+    pub missed_ticks: u64,
 }
 
 impl EventTotals {
@@ -45,6 +49,8 @@ impl EventTotals {
             rejected: d(self.rejected, base.rejected),
             stale_ticks: d(self.stale_ticks, base.stale_ticks),
             fallback_ticks: d(self.fallback_ticks, base.fallback_ticks),
+            late_ticks: d(self.late_ticks, base.late_ticks),
+            missed_ticks: d(self.missed_ticks, base.missed_ticks),
         }
     }
 }
@@ -64,6 +70,10 @@ pub struct PeriodCounts {
     pub stale_ticks: u32,
     /// Safety fallbacks.
     pub fallback_ticks: u32,
+    /// Ticks started more than half a period late.
+    pub late_ticks: u32,
+    /// Ticks never run.
+    pub missed_ticks: u32,
 }
 
 /// The worst code and the events of the current status period.

@@ -89,6 +89,12 @@ pub struct StatusSnapshot {
     pub locked_joint: Option<usize>,
     /// Subscribers matched on the command topic (`None`: not known).
     pub command_subscribers: Option<u32>,
+    /// Ticks started more than half a period late since start (count).
+    pub late_ticks: u64,
+    /// Ticks never run since start (count).
+    pub missed_ticks: u64,
+    /// Largest lateness of a tick's start since start (µs).
+    pub tick_late_max_us: f64,
 }
 
 impl StatusSnapshot {
@@ -145,6 +151,11 @@ impl StatusSnapshot {
             command_subscribers: self
                 .command_subscribers
                 .map_or(-1, |n| n.min(i32::MAX as u32) as i32),
+            late_ticks: self.late_ticks,
+            missed_ticks: self.missed_ticks,
+            period_late_ticks: self.period.late_ticks,
+            period_missed_ticks: self.period.missed_ticks,
+            tick_late_max_us: self.tick_late_max_us,
         }
     }
 }

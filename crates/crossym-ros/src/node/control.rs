@@ -50,7 +50,9 @@ const MAX_READS: usize = 64;
 /// TF messages taken from each TF reader when a pose arrives (its history depth).
 const TF_READS: usize = 100;
 
-/// What the control thread tells the I/O thread's log.
+/// What the control thread tells the I/O thread's log. Not boxed: a status snapshot (plain
+/// data, a few per second) moves by copy, with no allocation on the control thread.
+#[allow(clippy::large_enum_variant)]
 pub(super) enum ToIo {
     /// A status snapshot (its transitions are logged).
     Status(StatusSnapshot),
@@ -135,7 +137,7 @@ enum HookState {
     /// a dropped writer is removed from the loop with what it has not delivered.
     Draining {
         until: Instant,
-        stats: TickStats,
+        stats: Box<TickStats>,
         _control: Box<ControlThread>,
     },
     Done,
@@ -184,7 +186,7 @@ impl EventLoopHook for ControlHook {
                     {
                         self.state = HookState::Draining {
                             until: Instant::now() + DRAIN,
-                            stats,
+                            stats: Box::new(stats),
                             _control: c,
                         };
                     }
@@ -194,7 +196,7 @@ impl EventLoopHook for ControlHook {
                     if now < *until {
                         return Some(*until - now);
                     }
-                    let stats = std::mem::take(stats);
+                    let stats = std::mem::take(&mut **stats);
                     // The endpoints go first (their removal is queued to this live loop),
                     // then the statistics, after which the process drops the participant.
                     self.state = HookState::Done;
@@ -228,6 +230,8 @@ pub(super) struct ControlThread {
     tick: Histogram,
     /// The command publish call (µs).
     publish: Histogram,
+    /// How late each tick started (µs).
+    late: Histogram,
     /// The loop's state between steps.
     run: RunState,
 }
@@ -241,6 +245,8 @@ struct RunState {
     next: Instant,
     next_status: Instant,
     last_seq: u64,
+    /// The wall-clock DDS receive stamp (ns) of the latest accepted joint state.
+    last_rx_ns: u64,
 }
 
 impl ControlThread {
@@ -266,6 +272,7 @@ impl ControlThread {
             next: Instant::now() + period,
             next_status: Instant::now(),
             last_seq: 0,
+            last_rx_ns: 0,
         };
         Ok(Self {
             core,
@@ -279,6 +286,7 @@ impl ControlThread {
             to_control: Histogram::new(),
             tick: Histogram::new(),
             publish: Histogram::new(),
+            late: Histogram::new(),
             run,
         })
     }
@@ -341,6 +349,26 @@ impl ControlThread {
         let t0 = Instant::now();
         let now_ns = dds::wall_time_ns();
         let fresh = seq != self.run.last_seq;
+        // How late this tick starts, and the ticks that never ran (`node::timing`): a
+        // joint-state tick from its state's arrival, joint states read together but the
+        // latest untaken; any other tick from the time it was due (none for the first).
+        let (late_s, missed) = if trigger == Trigger::JointStates && fresh {
+            let late_ns = (now_ns as i64).saturating_sub(self.run.last_rx_ns as i64);
+            let together = seq.saturating_sub(self.run.last_seq).saturating_sub(1);
+            (late_ns as f64 * 1e-9, together.min(u32::MAX as u64) as u32)
+        } else if self.run.stats.ticks == 0 {
+            (0.0, 0)
+        } else {
+            let late_s = t0.saturating_duration_since(self.run.next).as_secs_f64();
+            let skipped = if trigger == Trigger::Timer {
+                (late_s / period_s).floor() as u32
+            } else {
+                0
+            };
+            (late_s, skipped)
+        };
+        self.core.record_tick_start(late_s, missed);
+        self.late.record(late_s * 1e6);
         self.run.last_seq = seq;
         let report = self.core.tick(now_ns as f64 * 1e-9, &mut self.run.cmd);
         let us = t0.elapsed().as_secs_f64() * 1e6;
@@ -402,6 +430,10 @@ impl ControlThread {
         stats.dds_in = self.dds_in.stats();
         stats.to_control = self.to_control.stats();
         stats.publish = self.publish.stats();
+        stats.late = self.late.stats();
+        let status = self.core.status();
+        stats.late_ticks = status.late_ticks;
+        stats.missed_ticks = status.missed_ticks;
         stats
     }
 
@@ -586,8 +618,13 @@ impl ControlThread {
             }
             self.to_control.record(span_us(rx, now_ns as i64));
         }
-        if let Err(r) = self.core.on_joint_state(&m, now_ns as f64 * 1e-9) {
-            self.tell(ToIo::JointStateRejected(r));
+        match self.core.on_joint_state(&m, now_ns as f64 * 1e-9) {
+            Ok(()) => {
+                self.run.last_rx_ns = info
+                    .received_timestamp()
+                    .map_or(now_ns, |rx| rx.to_nanos().max(0) as u64)
+            }
+            Err(r) => self.tell(ToIo::JointStateRejected(r)),
         }
         // Recorded before the tick, so the bag keeps each joint state ahead of the command
         // computed from it.
@@ -659,7 +696,7 @@ impl ControlThread {
             &self.links.names,
         );
         if let Some(r) = &self.links.rec {
-            r.send(RecordItem::Status(m.clone(), stamp_ns));
+            r.send(RecordItem::Status(Box::new(m.clone()), stamp_ns));
         }
         self.ends.status.publish(m).is_ok()
     }

@@ -235,6 +235,13 @@ fn finish(
             ),
         );
     }
+    io.log.log(
+        Severity::Info,
+        &format!(
+            "tick start after its time: {}; {} tick(s) more than half a period late, {} never ran",
+            stats.late, stats.late_ticks, stats.missed_ticks
+        ),
+    );
     Ok(stats)
 }
 

@@ -18,7 +18,8 @@ pub(super) enum RecordItem {
     Condition(msg::SymmetryCondition, u64, u32),
     Array(msg::Float64MultiArray, u64, u32),
     Trajectory(msg::JointTrajectory, u64, u32),
-    Status(msg::Status, u64),
+    /// Boxed: the largest message, a few per second (its strings allocate anyway).
+    Status(Box<msg::Status>, u64),
     /// The policy started or stopped (a lifecycle transition as the control thread applied
     /// it): replay applies it at the same point.
     Lifecycle(msg::TransitionEvent, u64),

@@ -28,6 +28,12 @@ pub struct TickStats {
     pub to_control: HopStats,
     /// The command publish call (serialisation, hand-off to the DDS writer; µs).
     pub publish: HopStats,
+    /// How late each tick started after its time (µs; `crossym_control::node::TickTiming`).
+    pub late: HopStats,
+    /// Ticks started more than half a period late (count).
+    pub late_ticks: u64,
+    /// Ticks never run (count).
+    pub missed_ticks: u64,
 }
 
 /// Latency of one hop of the joint state → command path (µs), from a histogram of 1 µs bins.
