@@ -296,11 +296,13 @@ fn bench_latency(_c: &mut Criterion) {
         domain_id: 77,
         range: DiscoveryRange::Localhost,
         distro: dds::DEFAULT_DISTRO,
+        security: Default::default(),
     };
     let stop = Arc::new(AtomicBool::new(false));
     let stop2 = stop.clone();
+    let node_settings = settings.clone();
     let node =
-        std::thread::spawn(move || crossym::ros::node::run(core, settings, Some(stop2), None));
+        std::thread::spawn(move || crossym::ros::node::run(core, node_settings, Some(stop2), None));
 
     let ctx = match settings.context() {
         Ok(c) => c,

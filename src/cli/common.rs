@@ -255,3 +255,22 @@ pub fn needs_teach(command: &str) -> anyhow::Result<std::process::ExitCode> {
          --features teach -- {command} …`)"
     )
 }
+
+/// The DDS settings of `crossym TOOL` (`ping`, `param`, `status`, `record`, `replay
+/// --live`, `lifecycle`): the ROS environment, SROS2's variables included
+/// (docs/guide/security.md); when security was asked for, one line on stderr says whether
+/// the tool runs secured and as which enclave (a permissive fallback's warning).
+pub fn dds_settings(tool: &str) -> anyhow::Result<crossym::ros::dds::DdsSettings> {
+    let s = crossym::ros::dds::DdsSettings::from_env()?;
+    print_security(tool, &s)?;
+    Ok(s)
+}
+
+/// Prints on stderr how `crossym TOOL`'s participant will run when SROS2 security was
+/// asked for (`ROS_SECURITY_ENABLE=true`); an error where Enforce stops.
+pub fn print_security(tool: &str, s: &crossym::ros::dds::DdsSettings) -> anyhow::Result<()> {
+    if s.security.enable {
+        eprintln!("crossym {tool}: {}", s.security_mode()?.describe());
+    }
+    Ok(())
+}

@@ -248,6 +248,9 @@ pub fn run(a: &DemoArgs) -> anyhow::Result<ExitCode> {
         started.domain_id(),
         s.out.display()
     );
+    if let Some(line) = started.security() {
+        println!("  {line}");
+    }
     let run = started.finish(&p)?;
     let report = demo::report(&s, &p, &run);
     let files = demo::write(&s, &p, &run, &report)?;

@@ -6,7 +6,7 @@
 use std::process::ExitCode;
 use std::time::Duration;
 
-use crossym::ros::dds::{self, DdsSettings};
+use crossym::ros::dds;
 use crossym::ros::lifecycle_client::LifecycleClient;
 
 /// Options of `crossym lifecycle`. The verb and the transition are separate positional
@@ -50,7 +50,8 @@ pub fn run(a: &LifecycleArgs) -> anyhow::Result<ExitCode> {
     };
     let n = a.node.node_config()?;
     let target = dds::node_name(&n.namespace, &n.name)?.fully_qualified_name();
-    let settings = DdsSettings::from_env()?.with_config_distro(n.ros_distro.as_deref())?;
+    let settings =
+        super::common::dds_settings("lifecycle")?.with_config_distro(n.ros_distro.as_deref())?;
     let ctx = settings.context()?;
     let client = LifecycleClient::new(&ctx, &target)?;
     let timeout = Duration::from_secs_f64(a.timeout_s);

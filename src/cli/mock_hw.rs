@@ -70,6 +70,7 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
             ros.is_none(),
             "--ros-args: the physics robot takes no ROS arguments"
         );
+        physics_security(&DdsSettings::from_env()?)?;
         let limits: Vec<(f64, f64)> = kin.limits().iter().map(|l| (l.lower, l.upper)).collect();
         return physics_robot(&cfg, &hw_cfg, kin.joint_names(), &q0, &limits, summary);
     }
@@ -94,7 +95,8 @@ pub fn run(a: &MockHwArgs) -> anyhow::Result<ExitCode> {
         hw_cfg.clone(),
     )
     .context("[mock_hw]")?;
-    let settings = DdsSettings::from_env()?;
+    let enclave = ros.as_ref().and_then(|r| r.enclave.as_deref());
+    let settings = DdsSettings::from_env()?.with_enclave(enclave);
     let s = crossym::sim::process::run(hw, &hw_cfg, &topic, mode, settings, summary)?;
     Ok(if s.violation_count == 0 {
         ExitCode::SUCCESS
@@ -183,4 +185,20 @@ fn physics_robot(
         "running python3 {} (install its packages with `bash physics/install.sh`)",
         program.display()
     )))
+}
+
+/// The physics robot (Python, Cyclone DDS without its security plugins) joins the domain
+/// unsecured: refused under SROS2's Enforce, a warning when permissive.
+fn physics_security(settings: &DdsSettings) -> anyhow::Result<()> {
+    use crossym::ros::sros2::Strategy;
+    let s = &settings.security;
+    if s.enable {
+        let why = "the physics robot (physics/rby1_mujoco.py, Cyclone DDS) cannot run secured";
+        anyhow::ensure!(
+            s.strategy != Strategy::Enforce,
+            "ROS_SECURITY_STRATEGY=Enforce: {why}; use the kinematic mock (`--plant kinematic`)"
+        );
+        eprintln!("crossym mock-hw: SECURITY WARNING: running UNSECURED: {why}");
+    }
+    Ok(())
 }

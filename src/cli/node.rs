@@ -32,7 +32,8 @@ pub struct NodeArgs {
     /// them): `--ros-args`, then `-r [node:]from:=to` (`__node:=NAME`, `__ns:=/NS`, topic
     /// names), `-p [node:]name:=value` (a YAML value), `--params-file FILE`
     /// (`/**:`/`node:`/`/ns/node:` → `ros__parameters:`), `--log-level [logger:=]LEVEL`,
-    /// `-e/--enclave E` (stored), `--enable-/--disable-{stdout,rosout,external-lib}-logs`,
+    /// `-e/--enclave E` (SROS2's enclave, docs/guide/security.md),
+    /// `--enable-/--disable-{stdout,rosout,external-lib}-logs`,
     /// up to `--` or the end. Parameter values: config, then the files and `-p` in
     /// command-line order; an undeclared parameter, a read-only one given another value or
     /// a wrong type stops the node (exit 2). Service names are not remapped yet.
@@ -48,11 +49,14 @@ pub struct NodeArgs {
 /// `crossym node`.
 pub fn run(a: &NodeArgs) -> anyhow::Result<ExitCode> {
     let record = a.record.as_deref();
-    let core = match ros_arguments(&a.ros_args)? {
-        Some(ros) => core_with_ros_args(a, &ros)?,
+    let ros = ros_arguments(&a.ros_args)?;
+    let core = match &ros {
+        Some(ros) => core_with_ros_args(a, ros)?,
         None => build_core(&a.config, &a.overrides.overrides())?.1,
     };
-    let settings = DdsSettings::from_env()?;
+    // SROS2: the enclave of `--ros-args --enclave` (ROS_SECURITY_ENCLAVE_OVERRIDE wins).
+    let enclave = ros.as_ref().and_then(|r| r.enclave.as_deref());
+    let settings = DdsSettings::from_env()?.with_enclave(enclave);
     let stats = crossym::ros::node::run(core, settings, None, record)?;
     if let Some(dir) = record {
         eprintln!(
@@ -128,7 +132,6 @@ fn summary(
     )];
     lines.extend(setup.log.iter().cloned());
     let stored = [
-        ros.enclave.as_ref().map(|e| format!("--enclave {e}")),
         ros.log_file_name
             .as_ref()
             .map(|f| format!("--log-file-name {f}")),

@@ -5,7 +5,7 @@
 
 use std::process::ExitCode;
 
-use crossym::ros::dds::{self, DdsSettings};
+use crossym::ros::dds;
 use crossym::ros::tools::param::{parse_value, show_value, ParamClient, SetOutcome};
 
 /// Options of `crossym param`. The verb, the name and the value are separate positional
@@ -47,7 +47,8 @@ pub fn run(a: &ParamArgs) -> anyhow::Result<ExitCode> {
     };
     let n = a.node.node_config()?;
     let target = dds::node_name(&n.namespace, &n.name)?.fully_qualified_name();
-    let mut client = ParamClient::open(&DdsSettings::from_env()?, &target, a.timeout_s)?;
+    let mut client =
+        ParamClient::open(&super::common::dds_settings("param")?, &target, a.timeout_s)?;
     let name = &a.name;
     match value {
         None => match client.get(name)? {

@@ -7,7 +7,6 @@ use std::process::ExitCode;
 
 use crossym::config::Config;
 use crossym::control::Trigger;
-use crossym::ros::dds::DdsSettings;
 use crossym::ros::tools::ping::{
     probe_position, Latency, Ping, PingError, PingReport, PingSettings, PingTarget,
 };
@@ -68,12 +67,17 @@ pub fn run(a: &PingArgs) -> anyhow::Result<ExitCode> {
     }
     let position = probe_position(cfg.start_q(), kin.limits());
     let target = PingTarget::for_node(&n, kin.joint_names().to_vec(), position);
-    let ping = Ping::connect(target, &settings, &DdsSettings::from_env()?, |o| {
-        eprintln!(
-            "crossym ping: {}",
-            o.to_string().replace("control thread", "ping thread")
-        )
-    })?;
+    let ping = Ping::connect(
+        target,
+        &settings,
+        &super::common::dds_settings("ping")?,
+        |o| {
+            eprintln!(
+                "crossym ping: {}",
+                o.to_string().replace("control thread", "ping thread")
+            )
+        },
+    )?;
     let t = ping.target();
     eprintln!(
         "crossym ping: {} → {}, {} probes at {} Hz",

@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use crossym::config::Config;
-use crossym::ros::dds::DdsSettings;
 use crossym::ros::tools::record::{RecordSettings, RecordTopic, Recorder};
 use crossym::ros::tools::stop::stop_on_signals;
 use crossym::setup::{node_config, NodeOverrides};
@@ -43,7 +42,7 @@ pub fn run(a: &RecordArgs) -> anyhow::Result<ExitCode> {
         topics,
         duration_s: a.duration_s,
     };
-    let recorder = Recorder::open(settings, &DdsSettings::from_env()?)?;
+    let recorder = Recorder::open(settings, &super::common::dds_settings("record")?)?;
     let stop = stop_on_signals()?;
     eprintln!(
         "crossym record: {} topics into {} (Ctrl-C to stop)",

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use crossym::config::Config;
-use crossym::ros::dds::DdsSettings;
 use crossym::ros::replay::{self as offline, ReplayTopics};
 use crossym::ros::tools::play::{play, PlaySettings};
 use crossym::setup::{build_core, node_config, NodeOverrides};
@@ -100,7 +99,12 @@ pub fn replay_live(
     let cfg = Config::from_file(config)?;
     let n = node_config(&cfg, &NodeOverrides::default())?;
     let topics = ReplayTopics::for_node(&n);
-    let played = play(bag_path, &topics, settings, &DdsSettings::from_env()?)?;
+    let played = play(
+        bag_path,
+        &topics,
+        settings,
+        &super::common::dds_settings("replay")?,
+    )?;
     println!(
         "played {}: {} joint states on {}, {} conditions on {} in {:.2} s (rate {}×)",
         bag_path.display(),

@@ -5,7 +5,6 @@
 use std::io::{IsTerminal, Write};
 use std::process::ExitCode;
 
-use crossym::ros::dds::DdsSettings;
 use crossym::ros::tools::status::{
     status_line, StatusEvent, StatusWatch, StatusWatchError, StatusWatchSettings,
 };
@@ -30,7 +29,7 @@ pub fn run(a: &StatusArgs) -> anyhow::Result<ExitCode> {
         timeout_s: a.timeout_s,
         count: a.count,
     };
-    let watch = StatusWatch::open(&n, settings, &DdsSettings::from_env()?)?;
+    let watch = StatusWatch::open(&n, settings, &super::common::dds_settings("status")?)?;
     let tty = std::io::stdout().is_terminal();
     eprintln!(
         "crossym status: watching {} (Ctrl-C to stop)",

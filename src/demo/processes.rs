@@ -16,6 +16,15 @@ use super::{DemoError, DemoSettings, Prepared};
 /// How long the scenario waits for the node and the mock hardware to be discovered.
 const DISCOVERY_TIMEOUT: Duration = Duration::from_secs(30);
 
+/// Under SROS2 (`ROS_SECURITY_ENABLE=true`, docs/guide/security.md): the node's enclave
+/// (`--ros-args --enclave`; `ROS_SECURITY_ENCLAVE_OVERRIDE` wins, as in rcl).
+pub const NODE_ENCLAVE: &str = "/crossym/node";
+/// The mock hardware's enclave under SROS2.
+pub const MOCK_HW_ENCLAVE: &str = "/crossym/mock_hw";
+/// The enclave of the demo's own participant (conditions, resets, joint states, status,
+/// lifecycle activation) under SROS2.
+pub const DEMO_ENCLAVE: &str = "/crossym/demo";
+
 /// A child process that is terminated (SIGTERM, then killed) when dropped.
 struct Proc {
     name: &'static str,
@@ -96,11 +105,20 @@ pub struct Run {
 /// Step 2: creates `out`, then starts `exe mock-hw` (writing its summary) and `exe node`
 /// (recording into `out/bag`, replaced) with the settings' config, policy and plant, in the
 /// DDS domain of `ROS_DOMAIN_ID`, localhost only; their logs go to `out/mock_hw.log` and
-/// `out/node.log`.
+/// `out/node.log`. Under SROS2's variables (inherited by the children) each process runs
+/// as its enclave: [`NODE_ENCLAVE`], [`MOCK_HW_ENCLAVE`], this one [`DEMO_ENCLAVE`].
 pub fn start(s: &DemoSettings, exe: &Path) -> Result<Started, DemoError> {
     std::fs::create_dir_all(&s.out).map_err(DemoError::io("creating", &s.out))?;
-    let mut settings = DdsSettings::from_env()?;
+    let mut settings = DdsSettings::from_env()?.with_enclave(Some(DEMO_ENCLAVE));
     settings.range = DiscoveryRange::Localhost;
+    // Enforce without the files stops here, before any child starts.
+    settings.security_mode()?;
+    let secured = settings.security.enable;
+    let enclave = |c: &mut Command, e: &str| {
+        if secured {
+            c.args(["--ros-args", "--enclave", e]);
+        }
+    };
     let child = |sub: &str| {
         let mut c = Command::new(exe);
         c.arg(sub)
@@ -120,6 +138,9 @@ pub fn start(s: &DemoSettings, exe: &Path) -> Result<Started, DemoError> {
             Plant::Mujoco => "mujoco",
         });
     }
+    if s.plant != Some(Plant::Mujoco) {
+        enclave(&mut hw_cmd, MOCK_HW_ENCLAVE);
+    }
     let hw = Proc::spawn("mock-hw", hw_cmd, &s.out.join("mock_hw.log"))?;
     let bag_dir = s.bag_dir();
     if bag_dir.exists() {
@@ -130,6 +151,7 @@ pub fn start(s: &DemoSettings, exe: &Path) -> Result<Started, DemoError> {
     if let Some(p) = &s.policy {
         node_cmd.arg("--policy").arg(p);
     }
+    enclave(&mut node_cmd, NODE_ENCLAVE);
     let node = Proc::spawn("node", node_cmd, &s.out.join("node.log"))?;
     Ok(Started {
         hw,
@@ -145,13 +167,20 @@ impl Started {
         self.settings.domain_id
     }
 
+    /// Under SROS2 (`ROS_SECURITY_ENABLE=true`): how the demo's own participant runs
+    /// (secured as [`DEMO_ENCLAVE`], or the permissive fallback's warning); `None` without.
+    pub fn security(&self) -> Option<String> {
+        let mode = self.settings.security_mode().ok()?;
+        self.settings.security.enable.then(|| mode.describe())
+    }
+
     /// Step 3: runs the prepared steps against the children, stops them (SIGTERM) and reads
     /// the mock hardware's summary.
     pub fn finish(mut self, p: &Prepared) -> Result<Run, DemoError> {
         let kin = &p.robot.kinematics;
         let topics = ScenarioTopics::new(&p.node, &p.mock_hw.reset_topic);
         let results = scenario::run(
-            self.settings,
+            self.settings.clone(),
             &topics,
             kin,
             kin.joint_names(),

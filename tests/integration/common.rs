@@ -368,6 +368,7 @@ impl Watch {
             domain_id: domain,
             range: dds::DiscoveryRange::Localhost,
             distro: dds::DEFAULT_DISTRO,
+            security: Default::default(),
         }
         .context()
         .expect("DDS context");

@@ -222,6 +222,7 @@ fn closed_loop(domain: u16, output: &str, name: &str) {
         domain_id: domain,
         range: DiscoveryRange::Localhost,
         distro: dds::DEFAULT_DISTRO,
+        security: Default::default(),
     };
     let topics = ScenarioTopics::new(&node_cfg, "/mock_hw/reset");
     let watch = watch(domain, &cfg);

@@ -403,6 +403,7 @@ impl Observer {
             domain_id: domain,
             range: DiscoveryRange::Localhost,
             distro: dds::DEFAULT_DISTRO,
+            security: Default::default(),
         }
         .context()
         .unwrap();

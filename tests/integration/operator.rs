@@ -105,6 +105,7 @@ fn node_talks_on_the_terminal_and_status_shows_it() {
         domain_id: domain,
         range: DiscoveryRange::Localhost,
         distro: dds::DEFAULT_DISTRO,
+        security: Default::default(),
     };
     let ctx = settings.context().unwrap();
     let mut pnode = ctx

@@ -348,11 +348,11 @@ fn shipped_policy_grants_what_the_guide_says() {
             policy.to_str().unwrap(),
         ],
     );
-    assert_eq!(out.lines().count(), 3, "{out}");
+    assert_eq!(out.lines().count(), 5, "{out}");
     let listed = security(7, &["list-enclaves", k]);
     assert_eq!(
         listed,
-        "/crossym/node\n/crossym/operator\n/crossym/perception\n"
+        "/crossym/demo\n/crossym/mock_hw\n/crossym/node\n/crossym/operator\n/crossym/perception\n"
     );
     let grant = |enclave: &str| -> (Vec<String>, Vec<String>, String) {
         let xml =
@@ -509,6 +509,20 @@ fn refusals_say_what_to_do() {
     );
 }
 
+/// Changes the keystore's signed governance after signing (RTPS protection SIGN → NONE):
+/// its signature no longer matches.
+fn tamper_governance(ks: &Path) {
+    let gov = ks.join("enclaves/governance.p7s");
+    let text = std::fs::read_to_string(&gov).unwrap();
+    let changed = text.replacen(
+        "<rtps_protection_kind>SIGN",
+        "<rtps_protection_kind>NONE",
+        1,
+    );
+    assert_ne!(text, changed);
+    std::fs::write(&gov, changed).unwrap();
+}
+
 /// `cp -a from to` (the keystore's relative links kept).
 fn copy_keystore(from: &Path, to: &Path) {
     let ok = Command::new("cp")
@@ -557,15 +571,7 @@ fn rustdds_opens_secured_participants_and_refuses_tampered_files() {
 
     let tampered = dir.join("tampered");
     copy_keystore(&ks, &tampered);
-    let gov = tampered.join("enclaves/governance.p7s");
-    let text = std::fs::read_to_string(&gov).unwrap();
-    let changed = text.replacen(
-        "<rtps_protection_kind>SIGN",
-        "<rtps_protection_kind>NONE",
-        1,
-    );
-    assert_ne!(text, changed);
-    std::fs::write(&gov, changed).unwrap();
+    tamper_governance(&tampered);
     let err = open(&tampered.join("enclaves/crossym/node")).unwrap_err();
     assert!(err.contains("does not match"), "{err}");
 
@@ -579,4 +585,469 @@ fn rustdds_opens_secured_participants_and_refuses_tampered_files() {
     .unwrap();
     let err = open(&foreign.join("enclaves/crossym/node")).unwrap_err();
     assert!(err.contains("Signature verification failure"), "{err}");
+}
+
+// ---------------------------------------------------------------------------------------
+// Running secured (SROS2's environment, as rcl reads it): the node, the mock robot, the
+// demo and the tools over DDS. Domains 188–193 (no other test uses them); CI runs these
+// inside tools/netns-run.
+// ---------------------------------------------------------------------------------------
+
+use std::time::{Duration, Instant};
+
+use crossym::ros::dds::{self, DdsSettings, DiscoveryRange};
+use crossym::ros::sros2::SecurityEnv;
+
+/// A keystore of the shipped policy's enclaves for `domain` (governance and permissions
+/// name the domain), in a fresh directory.
+fn shipped_keystore(domain: u16, tag: &str) -> PathBuf {
+    let ks = common::temp_dir(tag).join("keystore");
+    let policy = common::path("config/security/policy.xml");
+    security(
+        domain,
+        &[
+            "generate-artifacts",
+            "-k",
+            ks.to_str().unwrap(),
+            "-p",
+            policy.to_str().unwrap(),
+        ],
+    );
+    ks
+}
+
+/// `crossym ARGS…` under SROS2: `ROS_SECURITY_ENABLE=true`, the keystore and `strategy`
+/// (`None`: the variables removed, an ordinary process).
+fn crossym_sec(args: &[&str], sec: Option<(&Path, &str)>) -> Command {
+    let mut c = common::crossym(args);
+    c.current_dir(common::root())
+        .env_remove("ROS_SECURITY_ENCLAVE_OVERRIDE");
+    match sec {
+        Some((ks, strategy)) => {
+            c.env("ROS_SECURITY_ENABLE", "true")
+                .env("ROS_SECURITY_KEYSTORE", ks)
+                .env("ROS_SECURITY_STRATEGY", strategy);
+        }
+        None => {
+            c.env_remove("ROS_SECURITY_ENABLE")
+                .env_remove("ROS_SECURITY_KEYSTORE")
+                .env_remove("ROS_SECURITY_STRATEGY");
+        }
+    }
+    c
+}
+
+fn letters() -> String {
+    common::path("config/letters.toml").display().to_string()
+}
+
+/// The node and the mock robot of config/letters.toml in `domain`, secured from `ks`
+/// (Enforce; as /crossym/node and /crossym/mock_hw) or not; waits until the node has
+/// joint states. Logs in `dir`.
+fn node_and_robot(
+    domain: u16,
+    ks: Option<&Path>,
+    dir: &Path,
+) -> (common::Proc, common::Proc, PathBuf) {
+    let c = letters();
+    let sec = ks.map(|k| (k, "Enforce"));
+    let with_enclave = |args: &[&str], e: &str| -> Vec<String> {
+        let mut v: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        if ks.is_some() {
+            v.extend(["--ros-args", "--enclave", e].map(String::from));
+        }
+        v
+    };
+    let node_args = with_enclave(&["node", "--config", &c], "/crossym/node");
+    let hw_args = with_enclave(&["mock-hw", "--config", &c], "/crossym/mock_hw");
+    let node_log = dir.join("node.log");
+    let hw_log = dir.join("hw.log");
+    fn argv(v: &[String]) -> Vec<&str> {
+        v.iter().map(String::as_str).collect()
+    }
+    let node = common::Proc::spawn(
+        crossym_sec(&argv(&node_args), sec),
+        "node",
+        domain,
+        &node_log,
+    );
+    let hw = common::Proc::spawn(
+        crossym_sec(&argv(&hw_args), sec),
+        "mock-hw",
+        domain,
+        &hw_log,
+    );
+    assert!(
+        common::wait_for_text(&node_log, "joint states received", Duration::from_secs(60)),
+        "the node never got joint states\n--- node\n{}\n--- mock-hw\n{}",
+        common::log_tail(&node_log),
+        common::log_tail(&hw_log)
+    );
+    (node, hw, node_log)
+}
+
+/// What the unsecured peer (tests/peer/attack_peer.py) saw while it published a condition
+/// for `seconds`: (conditions sent, commands received, statuses received, raw JSON).
+fn attack(domain: u16, seconds: f64) -> (u64, u64, u64, String) {
+    assert!(
+        common::python_has_cyclonedds(),
+        "PyPI cyclonedds is missing: run `bash tests/peer/install.sh` (.ci/run does)"
+    );
+    let out = Command::new("python3")
+        .arg(common::root().join("tests/peer/attack_peer.py"))
+        .args([
+            "--domain",
+            &domain.to_string(),
+            "--seconds",
+            &seconds.to_string(),
+        ])
+        .args(["--theta", "0.5", "--scale", "0.8", "--reflection", "1"])
+        .output()
+        .expect("python3 starts");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "attack_peer.py: {stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = stdout.lines().last().unwrap_or_default().to_string();
+    let v: serde_json::Value = serde_json::from_str(&line).expect("one JSON line");
+    let n = |k: &str| v[k].as_u64().unwrap_or(0);
+    (n("sent"), n("commands"), n("statuses"), line)
+}
+
+/// A DDS participant of this process in `domain`, secured as `enclave` of `ks` (Enforce).
+fn secured_context(domain: u16, ks: &Path, enclave: &str) -> Result<ros2_client::Context, String> {
+    DdsSettings {
+        domain_id: domain,
+        range: DiscoveryRange::Localhost,
+        distro: dds::DEFAULT_DISTRO,
+        security: SecurityEnv::enforce(ks, enclave),
+    }
+    .context()
+    .map_err(|e| e.to_string())
+}
+
+/// (a) A secured node and a secured mock robot complete a short demo: every process of
+/// `crossym demo` runs secured (Enforce) as its enclave of the shipped policy, and the
+/// loop passes with the same checks as unsecured (`demo: OK`): joint states, commands,
+/// status and the mock robot's resets cross DDS Security.
+#[test]
+fn secured_demo_passes() {
+    let domain = 188;
+    let ks = shipped_keystore(domain, "sec-demo");
+    let out = common::temp_dir("sec-demo-out");
+    let mut cmd = crossym_sec(
+        &[
+            "demo",
+            "--no-isolation",
+            "--duration-s",
+            "1",
+            // The identity condition: a changed one never reaches a secured node yet (see
+            // `secured_operator_reaches_the_node`, ignored).
+            "--condition",
+            "0:1:1",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        Some((&ks, "Enforce")),
+    );
+    cmd.env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_LOCALHOST_ONLY", "1")
+        .env_remove("CROSSYM_PRIVATE_NETNS");
+    let o = cmd.output().expect("crossym demo starts");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let node_log = std::fs::read_to_string(out.join("node.log")).unwrap_or_default();
+    let hw_log = std::fs::read_to_string(out.join("mock_hw.log")).unwrap_or_default();
+    // The demo's own errors, without RustDDS's log lines.
+    let stderr: Vec<String> = String::from_utf8_lossy(&o.stderr)
+        .lines()
+        .filter(|l| !l.contains(" rustdds::"))
+        .map(String::from)
+        .collect();
+    assert!(
+        o.status.success() && stdout.contains("demo: OK"),
+        "{:?}\n{stdout}\n{}\n--- node\n{}\n--- mock-hw\n{}",
+        o.status,
+        stderr.join("\n"),
+        common::log_tail(&out.join("node.log")),
+        common::log_tail(&out.join("mock_hw.log"))
+    );
+    assert!(
+        stdout.contains("secured as enclave /crossym/demo (strategy Enforce"),
+        "{stdout}"
+    );
+    assert!(
+        node_log.contains("secured as enclave /crossym/node (strategy Enforce"),
+        "{node_log}"
+    );
+    assert!(
+        hw_log.contains("secured as enclave /crossym/mock_hw (strategy Enforce"),
+        "{hw_log}"
+    );
+}
+
+/// (b) An unsecured, independent peer (Cyclone DDS, no credentials) on the node's domain:
+/// against an unsecured node it reads the commands and the condition it publishes is
+/// applied (the attack works: seen first, in this test); against a secured node (Enforce)
+/// it receives nothing and the node never applies its condition, while the node keeps
+/// running — a secured operator (enclave /crossym/operator) sees its status throughout.
+#[test]
+fn unsecured_peer_neither_commands_nor_reads_a_secured_node() {
+    // The attack succeeds against an unsecured node.
+    let dir = common::temp_dir("sec-attack-open");
+    let (mut node, mut hw, node_log) = node_and_robot(189, None, &dir);
+    let (sent, commands, _, raw) = attack(189, 6.0);
+    assert!(
+        commands > 0,
+        "the unsecured peer read no command of the unsecured node: {raw}"
+    );
+    assert!(
+        common::wait_for_text(
+            &node_log,
+            "symmetry condition accepted: θ = 0.5000 rad",
+            Duration::from_secs(10)
+        ),
+        "the unsecured node did not apply the peer's condition ({sent} sent: {raw})\n{}",
+        common::log_tail(&node_log)
+    );
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+
+    // The same attack against a secured node fails.
+    let domain = 190;
+    let ks = shipped_keystore(domain, "sec-attack");
+    let dir = common::temp_dir("sec-attack-secured");
+    let (mut node, mut hw, node_log) = node_and_robot(domain, Some(&ks), &dir);
+    let ctx = secured_context(domain, &ks, "/crossym/operator").expect("operator participant");
+    let mut onode = ctx
+        .new_node(
+            dds::node_name("/", "crossym_operator").unwrap(),
+            ros2_client::NodeOptions::new().enable_rosout(false),
+        )
+        .unwrap();
+    let status = dds::subscription::<crossym::msg::Status>(
+        &mut onode,
+        "/crossym/status",
+        dds::qos_reliable(100),
+    )
+    .expect("the operator may read the status");
+    let (sent, commands, statuses, raw) = attack(domain, 6.0);
+    assert!(sent >= 20, "{raw}");
+    assert_eq!(
+        (commands, statuses),
+        (0, 0),
+        "the unsecured peer read the secured node's topics: {raw}"
+    );
+    let text = std::fs::read_to_string(&node_log).unwrap();
+    assert!(
+        !text.contains("symmetry condition accepted"),
+        "the secured node applied a condition ({raw})\n{text}"
+    );
+    // The node ran on: its status reached the secured operator, with the default condition.
+    let t0 = Instant::now();
+    let mut seen = Vec::new();
+    while seen.len() < 5 && t0.elapsed() < Duration::from_secs(20) {
+        while let Ok(Some((s, _))) = status.take() {
+            seen.push(s);
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(
+        seen.len() >= 5,
+        "the secured operator saw {} statuses\n{}",
+        seen.len(),
+        common::log_tail(&node_log)
+    );
+    assert!(
+        seen.iter().all(|s| s.condition.theta == 0.0),
+        "{:?}",
+        seen.iter().map(|s| s.condition.theta).collect::<Vec<_>>()
+    );
+    drop(status);
+    drop(onode);
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+}
+
+/// `std_srvs/SetBool` (the node's `~/pause`), as this test's own client writes it.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+struct SetBoolRequest {
+    data: bool,
+}
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+struct SetBoolResponse {
+    success: bool,
+    message: String,
+}
+impl ros2_client::Message for SetBoolRequest {}
+impl ros2_client::Message for SetBoolResponse {}
+
+/// A `~/pause` client of the node `/crossym` on a new node of `ctx`.
+fn pause_client(
+    ctx: &ros2_client::Context,
+    tag: &str,
+) -> (
+    ros2_client::Node,
+    Result<ros2_client::Client<SetBoolRequest, SetBoolResponse>, String>,
+) {
+    let mut n = ctx
+        .new_node(
+            dds::node_name("/", &format!("crossym_{tag}")).unwrap(),
+            ros2_client::NodeOptions::new().enable_rosout(false),
+        )
+        .unwrap();
+    let qos = dds::qos_reliable(10);
+    let c = n
+        .create_client(
+            ros2_client::ServiceMapping::Enhanced,
+            &ros2_client::Name::new("/crossym", "pause").unwrap(),
+            &ros2_client::ServiceTypeName::new("std_srvs", "SetBool"),
+            qos.clone(),
+            qos,
+        )
+        .map_err(|e| dds::create_error("~/pause client", &e).to_string());
+    (n, c)
+}
+
+/// (c) A secured peer whose permissions lack `~/pause` (enclave /crossym/perception of the
+/// shipped policy: it may publish `~/task_pose` only) cannot pause: DDS Security refuses
+/// its request writer (and a condition publisher), naming the topic and the enclave, and
+/// the node logs no pause; the operator enclave, which the policy grants it, pauses the
+/// same node.
+#[test]
+fn secured_peer_without_the_grant_cannot_pause() {
+    let domain = 191;
+    let ks = shipped_keystore(domain, "sec-pause");
+    let dir = common::temp_dir("sec-pause-run");
+    let (mut node, mut hw, node_log) = node_and_robot(domain, Some(&ks), &dir);
+
+    let ctx = secured_context(domain, &ks, "/crossym/perception").expect("perception");
+    let (mut pnode, refused) = pause_client(&ctx, "perception");
+    let e = refused.err().expect("perception may not call ~/pause");
+    assert!(
+        e.contains("not allowed by the permissions of enclave /crossym/perception")
+            && e.contains("rq/crossym/pauseRequest"),
+        "{e}"
+    );
+    let e = dds::publisher::<crossym::msg::SymmetryCondition>(
+        &mut pnode,
+        "/crossym/symmetry_condition",
+        dds::qos_reliable(10),
+    )
+    .err()
+    .expect("perception may not publish conditions")
+    .to_string();
+    assert!(
+        e.contains("/crossym/symmetry_condition not allowed by the permissions of enclave /crossym/perception"),
+        "{e}"
+    );
+    drop(pnode);
+    drop(ctx);
+    // The operator's enclave may create the same client.
+    let ctx = secured_context(domain, &ks, "/crossym/operator").expect("operator");
+    let (_onode, client) = pause_client(&ctx, "operator");
+    client.expect("the operator may call ~/pause");
+    let text = std::fs::read_to_string(&node_log).unwrap();
+    assert!(!text.contains("~/pause"), "{text}");
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+}
+
+/// KNOWN TO FAIL (ignored): a request or a condition from another secured participant
+/// reaches the secured node. It does not yet: the node's reliable readers never decode what
+/// a secured peer writes (RustDDS logs `Submessage decoding failed: … ring … 'Unspecified'`
+/// and `Could not find a remote EndpointCryptoHandle` for the (node reader, peer writer)
+/// pair), while the node's own writers and the mock robot's joint states (best effort)
+/// pass. `crossym param get` under /crossym/operator gets no answer either.
+#[test]
+#[ignore = "a secured peer's requests never reach the secured node (RustDDS, docs/guide/security.md)"]
+fn secured_operator_reaches_the_node() {
+    let domain = 193;
+    let ks = shipped_keystore(domain, "sec-operator");
+    let dir = common::temp_dir("sec-operator-run");
+    let (mut node, mut hw, node_log) = node_and_robot(domain, Some(&ks), &dir);
+    let ctx = secured_context(domain, &ks, "/crossym/operator").expect("operator");
+    let (_onode, client) = pause_client(&ctx, "operator");
+    let client = client.expect("the operator may call ~/pause");
+    let t0 = Instant::now();
+    let mut answer = None;
+    while answer.is_none() && t0.elapsed() < Duration::from_secs(30) {
+        let _ = client.send_request(SetBoolRequest { data: true });
+        let t1 = Instant::now();
+        while t1.elapsed() < Duration::from_millis(500) {
+            if let Ok(Some((_, r))) = client.receive_response() {
+                answer = Some(r);
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+    let answer = answer.expect("the operator's ~/pause was answered");
+    assert!(answer.success, "{answer:?}");
+    let text = std::fs::read_to_string(&node_log).unwrap();
+    let pauses = text.matches("~/pause true from").count();
+    assert!(pauses >= 1, "{}", common::log_tail(&node_log));
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+}
+
+/// (d) Enforce with a governance changed after signing: the node does not start, and says
+/// why (RustDDS's signature check, naming the enclave's directory). Permissive with a
+/// keystore that does not exist: the node starts unsecured and warns, naming the missing
+/// keystore; Enforce with it: the node stops at once, naming it.
+#[test]
+fn enforce_refuses_bad_files_and_permissive_warns() {
+    let domain = 192;
+    let ks = shipped_keystore(domain, "sec-enforce");
+    tamper_governance(&ks);
+    let c = letters();
+    let node = |ks: &Path, strategy: &str| {
+        let mut cmd = crossym_sec(
+            &[
+                "node",
+                "--config",
+                &c,
+                "--ros-args",
+                "--enclave",
+                "/crossym/node",
+            ],
+            Some((ks, strategy)),
+        );
+        cmd.env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_LOCALHOST_ONLY", "1");
+        cmd
+    };
+    let o = node(&ks, "Enforce").output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("secured participant in domain 192 (enclave /crossym/node")
+            && err.contains("does not match"),
+        "{err}"
+    );
+
+    let missing = common::temp_dir("sec-no-keystore").join("nowhere");
+    let o = node(&missing, "Enforce").output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("ROS_SECURITY_STRATEGY=Enforce")
+            && err.contains(&format!("{} is missing", missing.display())),
+        "{err}"
+    );
+
+    let log = common::temp_dir("sec-permissive").join("node.log");
+    let mut n = common::Proc::spawn(node(&missing, "Permissive"), "node", domain, &log);
+    assert!(
+        common::wait_for_text(&log, "running UNSECURED", Duration::from_secs(60)),
+        "{}",
+        common::log_tail(&log)
+    );
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.contains("[WARN]") && text.contains(&format!("{} is missing", missing.display())),
+        "{text}"
+    );
+    assert_eq!(n.term(), 0);
 }

@@ -5,7 +5,11 @@
 //! - `ROS_DOMAIN_ID` (0–232, default 0);
 //! - `ROS_LOCALHOST_ONLY=1` (Humble) or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` (Iron+):
 //!   discovery and traffic on the loopback interface only (RustDDS `with_only_networks`);
-//!   `ROS_AUTOMATIC_DISCOVERY_RANGE=OFF` is refused (no static peers here).
+//!   `ROS_AUTOMATIC_DISCOVERY_RANGE=OFF` is refused (no static peers here);
+//! - SROS2's `ROS_SECURITY_ENABLE`, `ROS_SECURITY_STRATEGY`, `ROS_SECURITY_KEYSTORE` and
+//!   `ROS_SECURITY_ENCLAVE_OVERRIDE` as rcl reads them ([`crate::sros2`]): every participant
+//!   built here runs secured from its enclave's files, or not at all, or unsecured after a
+//!   warning.
 //!
 //! Topic names follow ROS: `/abs`, `rel` (under the node namespace) and `~/priv`
 //! (under `<namespace>/<node>`), mapped to DDS `rt/...` by ros2-client.
@@ -16,6 +20,8 @@ use ros2_client::dds::rustdds::{DomainParticipantBuilder, EventLoopHook, Topic};
 use ros2_client::{Context, MessageTypeName, Name, NodeName, QosProfile, RosDistro};
 
 use crossym_io::msg::RosMessage;
+
+use crate::sros2::{SecurityEnv, SecurityMode, Sros2Error};
 
 /// Errors of the DDS layer (setup only).
 #[derive(Debug, thiserror::Error)]
@@ -38,6 +44,22 @@ pub enum DdsError {
         name: String,
         /// ros2-client's reason.
         message: String,
+    },
+    /// SROS2's variables ask for security that cannot be had (Enforce).
+    #[error("DDS Security: {0}")]
+    Security(#[from] Sros2Error),
+    /// DDS Security refused an endpoint: the enclave's permissions do not grant it.
+    #[error(
+        "DDS Security: {what} not allowed by the permissions of enclave {enclave} \
+         (its permissions.p7s; the policy file it was made from must grant it): {reason}"
+    )]
+    Forbidden {
+        /// The endpoint (`publisher on /crossym/pause`, …).
+        what: String,
+        /// The enclave the participant runs as.
+        enclave: String,
+        /// RustDDS's reason.
+        reason: String,
     },
     /// The DDS participant, node or an endpoint could not be created.
     #[error("DDS: {what}: {message}")]
@@ -82,8 +104,8 @@ pub fn parse_distro(name: &str) -> Result<RosDistro, String> {
         })
 }
 
-/// Domain, discovery range and ROS distribution of a participant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Domain, discovery range, ROS distribution and SROS2 security of a participant.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DdsSettings {
     /// DDS domain (0–232).
     pub domain_id: u16,
@@ -91,10 +113,13 @@ pub struct DdsSettings {
     pub range: DiscoveryRange,
     /// The ROS 2 distribution whose graph formats are spoken.
     pub distro: RosDistro,
+    /// SROS2's variables (`Default`: security off).
+    pub security: SecurityEnv,
 }
 
 impl DdsSettings {
-    /// Reads `ROS_DOMAIN_ID`, `ROS_LOCALHOST_ONLY` and `ROS_AUTOMATIC_DISCOVERY_RANGE`.
+    /// Reads `ROS_DOMAIN_ID`, `ROS_LOCALHOST_ONLY`, `ROS_AUTOMATIC_DISCOVERY_RANGE`,
+    /// `ROS_DISTRO` and SROS2's `ROS_SECURITY_*`.
     pub fn from_env() -> Result<Self, DdsError> {
         Self::from_vars(|k| std::env::var(k).ok())
     }
@@ -156,11 +181,26 @@ impl DdsSettings {
                 message: "crossym speaks humble, jazzy and kilted",
             })?,
         };
+        let security = SecurityEnv::from_vars(&get);
         Ok(Self {
             domain_id,
             range,
             distro,
+            security,
         })
+    }
+
+    /// These settings with `--ros-args --enclave` (rcl: `ROS_SECURITY_ENCLAVE_OVERRIDE`,
+    /// when set, still wins).
+    pub fn with_enclave(mut self, enclave: Option<&str>) -> Self {
+        self.security = self.security.with_ros_enclave(enclave);
+        self
+    }
+
+    /// What a participant built from these settings will be: secured as which enclave,
+    /// off, or unsecured after a warning (permissive); an error where Enforce stops.
+    pub fn security_mode(&self) -> Result<SecurityMode, DdsError> {
+        Ok(self.security.resolve()?)
     }
 
     /// These settings with `distro` (e.g. a config's `[node] ros_distro`).
@@ -205,14 +245,54 @@ impl DdsSettings {
         if self.range == DiscoveryRange::Localhost {
             b = b.with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)]);
         }
+        let mode = self.security_mode()?;
+        #[cfg(feature = "security")]
+        if let SecurityMode::Secured { dir, .. } = &mode {
+            use ros2_client::dds::rustdds::DomainParticipantSecurityConfigFiles as Files;
+            b = b.builtin_security(Files::with_ros_default_names(dir, String::new()));
+        }
         let dp = b.build().map_err(|e| DdsError::Create {
-            what: format!("participant in domain {}", self.domain_id),
+            what: match &mode {
+                SecurityMode::Secured { enclave, dir, .. } => format!(
+                    "secured participant in domain {} (enclave {enclave}, {})",
+                    self.domain_id,
+                    dir.display()
+                ),
+                _ => format!("participant in domain {}", self.domain_id),
+            },
             message: e.to_string(),
         })?;
+        *SECURED_ENCLAVE.lock().unwrap_or_else(|p| p.into_inner()) =
+            mode.enclave().map(String::from);
         Context::from_domain_participant(dp).map_err(|e| DdsError::Create {
             what: "ROS 2 context".into(),
             message: e.to_string(),
         })
+    }
+}
+
+/// The enclave of the last secured participant this process built (error messages only).
+static SECURED_ENCLAVE: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+/// The [`DdsError`] of a failed creation of `what` (an endpoint, a service): a refusal by
+/// DDS Security becomes [`DdsError::Forbidden`] naming the enclave, anything else
+/// [`DdsError::Create`].
+pub fn create_error(what: impl Into<String>, e: &ros2_client::CreateError) -> DdsError {
+    let message = format!("{e}");
+    let enclave = SECURED_ENCLAVE
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .clone();
+    match (message.find("not allowed by security"), enclave) {
+        (Some(at), Some(enclave)) => DdsError::Forbidden {
+            what: what.into(),
+            enclave,
+            reason: message[at..].to_string(),
+        },
+        _ => DdsError::Create {
+            what: what.into(),
+            message: format!("{e:?}"),
+        },
     }
 }
 
@@ -276,10 +356,7 @@ pub fn create_topic<M: RosMessage>(
     qos: &QosProfile,
 ) -> Result<Topic, DdsError> {
     node.create_topic(name, type_name::<M>(), qos)
-        .map_err(|e| DdsError::Create {
-            what: format!("topic {name}"),
-            message: format!("{e:?}"),
-        })
+        .map_err(|e| create_error(format!("topic {name}"), &e))
 }
 
 /// Creates a publisher of `M` on `topic` (ROS name) for `node`.
@@ -291,10 +368,7 @@ pub fn publisher<M: RosMessage + serde::Serialize>(
     let name = topic_name(topic, node.namespace(), &node_base_name(node))?;
     let t = create_topic::<M>(node, &name, &qos)?;
     node.create_publisher(&t, Some(qos))
-        .map_err(|e| DdsError::Create {
-            what: format!("publisher on {name}"),
-            message: format!("{e:?}"),
-        })
+        .map_err(|e| create_error(format!("publisher on {name}"), &e))
 }
 
 /// Creates a subscription of `M` on `topic` (ROS name) for `node`.
@@ -306,10 +380,7 @@ pub fn subscription<M: RosMessage + serde::de::DeserializeOwned + 'static>(
     let name = topic_name(topic, node.namespace(), &node_base_name(node))?;
     let t = create_topic::<M>(node, &name, &qos)?;
     node.create_subscription(&t, Some(qos))
-        .map_err(|e| DdsError::Create {
-            what: format!("subscription on {name}"),
-            message: format!("{e:?}"),
-        })
+        .map_err(|e| create_error(format!("subscription on {name}"), &e))
 }
 
 fn node_base_name(node: &ros2_client::Node) -> String {

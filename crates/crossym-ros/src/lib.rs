@@ -14,6 +14,8 @@
 //!   and live replay (`play`);
 //! - `security` (cargo feature `security`): SROS2 keystores — the CA, enclaves, governance
 //!   and permissions from sros2 policy files, signed as sros2 signs them;
+//! - [`sros2`]: SROS2's `ROS_SECURITY_*` variables read as rcl reads them (secured from
+//!   which enclave, Enforce or permissive), applied by [`dds`] to every participant;
 //! - [`sim`]: mock hardware, the physics robot (MuJoCo, out of process), scenarios and
 //!   the stress campaign.
 //!
@@ -46,4 +48,5 @@ pub mod ros_args;
 #[cfg(feature = "security")]
 pub mod security;
 pub mod sim;
+pub mod sros2;
 pub mod tools;

@@ -86,9 +86,8 @@ impl LifecycleClient {
                 message: format!("{e:?}"),
             })
         };
-        let err = |e| DdsError::Create {
-            what: "lifecycle client".into(),
-            message: format!("{e:?}"),
+        let err = |e: ros2_client::CreateError| {
+            dds::create_error(format!("lifecycle client of {target}"), &e)
         };
         let get = node
             .create_client(

@@ -17,7 +17,7 @@
 //!   (`/**`, `/*`, `/robot1/*`); nested parameter maps are flattened with `.`
 //!   (`safety: {margin: 0.1}` → `safety.margin`);
 //! - `--log-level [logger:=]LEVEL`, `--log-file-name`, `--log-config-file`, `-e`/`--enclave`
-//!   (stored: security comes later), `--enable-`/`--disable-{stdout,rosout,external-lib}-logs`;
+//!   (SROS2's enclave: [`crate::sros2`]), `--enable-`/`--disable-{stdout,rosout,external-lib}-logs`;
 //! - anything else after `--ros-args` is refused, naming the argument.
 //!
 //! Parameters are kept as rcl keeps them: one table per node name as written, in order of
@@ -358,7 +358,7 @@ pub struct RosArgs {
     pub log_level: Option<RosLogLevel>,
     /// `--log-level logger:=LEVEL` (the last one per logger).
     pub logger_levels: Vec<(String, RosLogLevel)>,
-    /// `--enclave` (stored; security is not implemented yet).
+    /// `--enclave`: SROS2's enclave ([`crate::sros2`]; `ROS_SECURITY_ENCLAVE_OVERRIDE` wins).
     pub enclave: Option<String>,
     /// `--log-file-name` (stored; the node writes no log file).
     pub log_file_name: Option<String>,

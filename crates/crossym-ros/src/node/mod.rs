@@ -123,6 +123,13 @@ pub fn run(
     for line in startup_summary(&core, &gate, &settings, record) {
         log.log(Severity::Info, &line);
     }
+    // SROS2: secured as which enclave, off, or the permissive fallback's warning.
+    let security = settings.security_mode()?;
+    let severity = match security.warning() {
+        Some(_) => Severity::Warn,
+        None => Severity::Info,
+    };
+    log.log(severity, &security.describe());
     let (to_io, from_control) = std::sync::mpsc::sync_channel(256);
     let links = Links {
         to_io,

@@ -11,8 +11,8 @@
 //!   the `openssl` crate, which RustDDS's DDS Security links anyway: no cryptography here);
 //! - [`SecurityError`]: what went wrong, naming the file.
 //!
-//! The node does not run secured yet: these are the files it will read
-//! (docs/guide/security.md).
+//! Processes run secured from these files through [`crate::sros2`] (SROS2's variables) and
+//! [`crate::dds::DdsSettings::context_with_hook`] (docs/guide/security.md).
 //!
 //! ```no_run
 //! use crossym_ros::security::Keystore;

@@ -62,6 +62,9 @@ pub fn run(
     summary_path: Option<&Path>,
 ) -> Result<MockHwSummary, NodeRunError> {
     let ctx = settings.context()?;
+    if settings.security.enable {
+        eprintln!("mock_hw: {}", settings.security_mode()?.describe());
+    }
     let mut node = ctx
         .new_node(
             dds::node_name("/", &cfg.name)?,

@@ -207,10 +207,7 @@ impl ParamClient {
                 qos.clone(),
                 qos,
             )
-            .map_err(|e| DdsError::Create {
-                what: format!("client of {}/{service}", self.target),
-                message: format!("{e:?}"),
-            })
+            .map_err(|e| dds::create_error(format!("client of {}/{service}", self.target), &e))
     }
 
     /// Calls `client` with `req`, re-sending every 0.5 s until a response arrives, or the
