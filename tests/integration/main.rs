@@ -16,6 +16,7 @@ mod equivariant_node;
 mod eval;
 mod faults;
 mod kinematics;
+mod load;
 // Needs the `teach` feature (training, LeRobot datasets, SQLite3 bags; CI: --all-features).
 #[cfg(feature = "teach")]
 mod lerobot;

@@ -3,8 +3,9 @@
 //! does to the node before anything else shows it.
 //!
 //! A tick is *late* when it starts more than half a period after its time: a timer tick
-//! after the instant it was due, a joint-state tick after the joint state arrived (its DDS
-//! receive stamp). Ticks are *missed* when they never run: timer ticks skipped
+//! after the instant it was due, a joint-state tick after its joint state was sent (the
+//! state's source stamp where the driver's clock agrees with ours, else its DDS receive
+//! stamp). Ticks are *missed* when they never run: timer ticks skipped
 //! (`⌊lateness / period⌋`: the next tick is scheduled one period after the late one, so a
 //! late tick does not bunch up), or joint states read together and ticked once, on the
 //! latest (all but one). `~/status` carries the totals and the counts of its period; the

@@ -245,7 +245,9 @@ struct RunState {
     next: Instant,
     next_status: Instant,
     last_seq: u64,
-    /// The wall-clock DDS receive stamp (ns) of the latest accepted joint state.
+    /// When the latest accepted joint state was sent (ns, wall clock): its source stamp
+    /// when it is plausible (not in the future, under a second old: the driver's clock
+    /// agrees with ours), else its DDS receive stamp.
     last_rx_ns: u64,
 }
 
@@ -350,8 +352,9 @@ impl ControlThread {
         let now_ns = dds::wall_time_ns();
         let fresh = seq != self.run.last_seq;
         // How late this tick starts, and the ticks that never ran (`node::timing`): a
-        // joint-state tick from its state's arrival, joint states read together but the
-        // latest untaken; any other tick from the time it was due (none for the first).
+        // joint-state tick from its state's sending (`last_rx_ns`), joint states read
+        // together but the latest untaken; any other tick from the time it was due (none
+        // for the first).
         let (late_s, missed) = if trigger == Trigger::JointStates && fresh {
             let late_ns = (now_ns as i64).saturating_sub(self.run.last_rx_ns as i64);
             let together = seq.saturating_sub(self.run.last_seq).saturating_sub(1);
@@ -620,9 +623,19 @@ impl ControlThread {
         }
         match self.core.on_joint_state(&m, now_ns as f64 * 1e-9) {
             Ok(()) => {
-                self.run.last_rx_ns = info
+                // The receive stamp is taken by this thread's event loop when it reads the
+                // socket: a thread held off the CPU sees its states late, yet "received"
+                // now. The source stamp tells (same host or synchronised clocks).
+                let rx = info
                     .received_timestamp()
-                    .map_or(now_ns, |rx| rx.to_nanos().max(0) as u64)
+                    .map_or(now_ns, |rx| rx.to_nanos().max(0) as u64);
+                let tx = info
+                    .source_timestamp()
+                    .map(|tx| tx.to_nanos())
+                    .filter(|&tx| {
+                        tx > 0 && (tx as u64) <= now_ns && now_ns - (tx as u64) < 1_000_000_000
+                    });
+                self.run.last_rx_ns = tx.map_or(rx, |tx| tx as u64);
             }
             Err(r) => self.tell(ToIo::JointStateRejected(r)),
         }

@@ -184,6 +184,16 @@ pub fn status_line(m: &msg::Status) -> String {
             m.singularity_condition, m.singularity_factor
         ));
     }
+    if m.late_ticks > 0 || m.missed_ticks > 0 {
+        s.push_str(&format!(
+            " | late ticks {} (this period {}), missed {} ({}), worst start {:.1} ms late",
+            m.late_ticks,
+            m.period_late_ticks,
+            m.missed_ticks,
+            m.period_missed_ticks,
+            m.tick_late_max_us * 1e-3
+        ));
+    }
     if !m.last_error.is_empty() {
         s.push_str(&format!(" | last error: {}", m.last_error));
     }
@@ -212,6 +222,21 @@ mod tests {
         assert!(s.contains("| joint state age 12.3 ms |"), "{s}");
         assert!(s.contains("| ticks 42 (stale 0) |"), "{s}");
         assert!(!s.contains("PAUSED") && !s.contains("velocity ×"), "{s}");
+        assert!(!s.contains("late ticks"), "{s}");
+        let s = status_line(&msg::Status {
+            late_ticks: 3,
+            missed_ticks: 29,
+            period_missed_ticks: 29,
+            period_late_ticks: 1,
+            tick_late_max_us: 301_200.0,
+            ..running()
+        });
+        assert!(
+            s.ends_with(
+                " | late ticks 3 (this period 1), missed 29 (29), worst start 301.2 ms late"
+            ),
+            "{s}"
+        );
         let s = status_line(&msg::Status {
             code: 99,
             joint_state_age_s: -1.0,

@@ -318,6 +318,9 @@ impl DPEventLoop {
       }
       match ev_wrapper.poll.poll(&mut events, Some(poll_timeout)) {
         Ok(_) => {}
+        // A signal (e.g. SIGCONT after SIGSTOP, a debugger attaching) interrupts
+        // epoll_wait with EINTR: poll again (mio: "callers should retry").
+        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
         Err(e) => {
           error!("dp_event_loop poll failed: {e:?}");
           break;
