@@ -59,7 +59,7 @@ case "$PROFILE" in
     debug) cargo_profile=() ;;
     *) echo "CROSSYM_DOCKER_PROFILE must be release or debug, not $PROFILE" >&2; exit 2 ;;
 esac
-# The default feature set, or CROSSYM_DOCKER_FEATURES (CI: `teach`, the set of its test
+# The default feature set, or CROSSYM_DOCKER_FEATURES (CI: `teach,security`, the set of its test
 # build, which is then reused as is). The image itself is built with --no-default-features:
 # without `fault-injection`, the deliberately broken filters of `crossym stress --break` (on
 # by default for the CLI and the tests), and without `teach`.
