@@ -71,11 +71,6 @@ def module_path(src, f):
     return tuple(parts)
 
 
-def strip_comments(text):
-    text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
-    return "\n".join(line.split("//", 1)[0] for line in text.splitlines())
-
-
 def expand_use(tree):
     """Paths of a `use` tree (`a::{b, c::{d, e}}` → a::b, a::c::d, a::c::e)."""
     tree = re.sub(r"\s+as\s+\w+", "", tree)
@@ -104,7 +99,7 @@ def expand_use(tree):
 
 
 def referenced_paths(text):
-    text = strip_comments(text)
+    text = code_only(text)
     paths = []
     for m in re.finditer(r"\buse\s+([^;]+);", text):
         paths += expand_use(m.group(1))
@@ -120,7 +115,7 @@ def reexports(text, here, modules):
     (`pub use child::Item;`), so that a path naming the item through its parent resolves to
     the file that defines it."""
     out = {}
-    for m in re.finditer(r"\bpub(?:\([^)]*\))?\s+use\s+([^;]+);", strip_comments(text)):
+    for m in re.finditer(r"\bpub(?:\([^)]*\))?\s+use\s+([^;]+);", code_only(text)):
         for path in expand_use(m.group(1)):
             parts = path.split("::")
             if parts[0] not in ("crate", "super", "self"):
