@@ -283,29 +283,7 @@ impl TaskPoseMap {
                 max_s: self.cfg.max_age_s,
             });
         }
-        let (p, q) = if m.header.frame_id == self.cfg.frame {
-            (p, q)
-        } else {
-            let tf = tf.ok_or_else(|| PoseRejection::Frame {
-                got: m.header.frame_id.clone(),
-                want: self.cfg.frame.clone(),
-            })?;
-            let t = tf
-                .lookup(
-                    &self.cfg.frame,
-                    &m.header.frame_id,
-                    stamp,
-                    self.cfg.tf_tolerance_s,
-                )
-                .map_err(|error| PoseRejection::Transform {
-                    got: m.header.frame_id.clone(),
-                    error,
-                })?;
-            let p = t * Point3::from(p);
-            let r =
-                t.rotation * UnitQuaternion::new_unchecked(Quaternion::new(q[3], q[0], q[1], q[2]));
-            ([p.x, p.y, p.z], [r.i, r.j, r.k, r.w])
-        };
+        let (p, q) = self.in_frame(m, stamp, p, q, tf)?;
         let r0 = self.cfg.reference_position;
         let moved =
             ((p[0] - r0[0]).powi(2) + (p[1] - r0[1]).powi(2) + (p[2] - r0[2]).powi(2)).sqrt();
@@ -347,6 +325,39 @@ impl TaskPoseMap {
             },
             tilt,
         })
+    }
+
+    /// The pose `(p, q)` of `m` (stamped `stamp`) in the configured frame: as is when `m`
+    /// is in it, else carried through `tf` (`None`, or no transform: refused).
+    fn in_frame(
+        &self,
+        m: &msg::PoseStamped,
+        stamp: f64,
+        p: [f64; 3],
+        q: Quat,
+        tf: Option<&TfBuffer>,
+    ) -> Result<([f64; 3], Quat), PoseRejection> {
+        if m.header.frame_id == self.cfg.frame {
+            return Ok((p, q));
+        }
+        let tf = tf.ok_or_else(|| PoseRejection::Frame {
+            got: m.header.frame_id.clone(),
+            want: self.cfg.frame.clone(),
+        })?;
+        let t = tf
+            .lookup(
+                &self.cfg.frame,
+                &m.header.frame_id,
+                stamp,
+                self.cfg.tf_tolerance_s,
+            )
+            .map_err(|error| PoseRejection::Transform {
+                got: m.header.frame_id.clone(),
+                error,
+            })?;
+        let p = t * Point3::from(p);
+        let r = t.rotation * UnitQuaternion::new_unchecked(Quaternion::new(q[3], q[0], q[1], q[2]));
+        Ok(([p.x, p.y, p.z], [r.i, r.j, r.k, r.w]))
     }
 
     /// The side point's direction from the object's origin perpendicular to the axis,

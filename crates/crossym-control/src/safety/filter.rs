@@ -318,30 +318,42 @@ impl<R: BoundRules> SafetyFilter<R> {
         if separable {
             self.clamp_into(out);
         } else {
-            self.weight(jac);
-            // The active-set solver first: an exact KKT point of this small dense QP in a
-            // few µs; anything it does not cover goes to Clarabel below.
-            if let Some(iterations) = self.try_active_set(barrier, out) {
-                report.iterations = iterations;
-                return self.finish(now_s, out, report);
-            }
-            let row = barrier.map(|b| (b.gradient, b.value));
-            self.clarabel_solves += 1;
-            let solved = self
-                .qp
-                .solve(&self.w, &self.v, &self.lo, &self.hi, row, gamma);
-            report.iterations = self.qp.iterations();
-            if solved {
-                let x = self.qp.solution();
-                for i in 0..n {
-                    out[i] = x[i].clamp(self.lo[i], self.hi[i]);
-                }
-            } else {
-                self.clamp_into(out);
-                report.status = SafetyStatus::Fallback;
-            }
+            self.solve_weighted(jac, barrier, out, &mut report);
         }
         self.finish(now_s, out, report)
+    }
+
+    /// The weighted QP (`W` from the task Jacobian `jac`, the distance row `barrier`) into
+    /// `out`: the active-set solver first (an exact KKT point of this small dense QP in a
+    /// few µs), Clarabel for what it does not cover, the clamp if Clarabel fails.
+    fn solve_weighted(
+        &mut self,
+        jac: Option<&DMatrix<f64>>,
+        barrier: Option<Barrier<'_>>,
+        out: &mut [f64],
+        report: &mut SafetyReport,
+    ) {
+        self.weight(jac);
+        if let Some(iterations) = self.try_active_set(barrier, out) {
+            report.iterations = iterations;
+            return;
+        }
+        let row = barrier.map(|b| (b.gradient, b.value));
+        self.clarabel_solves += 1;
+        let gamma = self.settings.barrier_gain;
+        let solved = self
+            .qp
+            .solve(&self.w, &self.v, &self.lo, &self.hi, row, gamma);
+        report.iterations = self.qp.iterations();
+        if solved {
+            let x = self.qp.solution();
+            for i in 0..self.n {
+                out[i] = x[i].clamp(self.lo[i], self.hi[i]);
+            }
+        } else {
+            self.clamp_into(out);
+            report.status = SafetyStatus::Fallback;
+        }
     }
 
     /// This tick's bounds `lo`, `hi` per joint (the horizon since the measurement at
