@@ -27,7 +27,7 @@ use nalgebra::{IsometryMatrix3, Matrix3xX, Matrix6xX, Rotation3, Unit, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::error::KinematicsError;
-use super::model::{JointKind, JointLimits, RobotModel};
+use super::model::{JointKind, JointLimits, JointModel, RobotModel};
 
 /// Which coordinates of the tip form the task-space point `x = f(q)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -246,6 +246,83 @@ struct Segment {
     prismatic: bool,
 }
 
+/// The segments of a chain being built along its joint path, with the constant transform
+/// accumulated since the last movable joint.
+struct SegmentFold {
+    segments: Vec<Segment>,
+    joint_names: Vec<String>,
+    limits: Vec<JointLimits>,
+    acc: IsometryMatrix3<f64>,
+    prev_align: Rotation3<f64>,
+}
+
+impl SegmentFold {
+    /// An empty fold at the chain's base.
+    fn new() -> Self {
+        Self {
+            segments: Vec::new(),
+            joint_names: Vec::new(),
+            limits: Vec::new(),
+            acc: IsometryMatrix3::identity(),
+            prev_align: Rotation3::identity(),
+        }
+    }
+
+    /// Folds the next joint of the path: fixed and held joints into `acc`, movable ones as segments.
+    fn fold_joint(
+        &mut self,
+        joint: &JointModel,
+        spec: &ChainSpec,
+        held: &HashMap<String, f64>,
+    ) -> Result<(), KinematicsError> {
+        match joint.kind {
+            JointKind::Unsupported => {
+                return Err(KinematicsError::UnsupportedJoint {
+                    chain: spec.name.clone(),
+                    joint: joint.name.clone(),
+                    kind: "floating/planar/spherical".into(),
+                })
+            }
+            JointKind::Fixed => self.acc *= joint.origin,
+            _ => {
+                if let Some(&v) = held.get(&joint.name) {
+                    if !v.is_finite() {
+                        return Err(KinematicsError::InvalidSetting {
+                            field: format!("held.{}", joint.name),
+                            message: format!("{v} is not finite"),
+                        });
+                    }
+                    self.acc = self.acc * joint.origin * joint.motion(v);
+                } else {
+                    self.push_movable(joint);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Ends the current segment at the movable joint `joint`.
+    fn push_movable(&mut self, joint: &JointModel) {
+        // Previous z-aligned frame → this joint's z-aligned frame.
+        let align = z_to(&joint.axis);
+        let pre = IsometryMatrix3::from_parts(
+            nalgebra::Translation3::identity(),
+            self.prev_align.inverse(),
+        ) * self.acc
+            * joint.origin
+            * IsometryMatrix3::from_parts(nalgebra::Translation3::identity(), align);
+        self.prev_align = align;
+        self.segments.push(Segment {
+            pre_translation_only: pre.rotation == Rotation3::identity(),
+            pre,
+            prismatic: joint.kind == JointKind::Prismatic,
+        });
+        self.joint_names.push(joint.name.clone());
+        self.limits.push(joint.limits);
+        self.acc = IsometryMatrix3::identity();
+    }
+}
+
 /// A rotation `A` with `A e_z = a` (the identity for `a = e_z`).
 fn z_to(a: &Unit<Vector3<f64>>) -> Rotation3<f64> {
     if a.into_inner() == Vector3::z() {
@@ -309,56 +386,17 @@ impl Chain {
                 base: spec.base.clone(),
                 tip: spec.tip.clone(),
             })?;
-        let mut segments = Vec::new();
-        let mut joint_names = Vec::new();
-        let mut limits = Vec::new();
-        let mut acc = IsometryMatrix3::identity();
-        let mut prev_align = Rotation3::identity();
+        let mut fold = SegmentFold::new();
         for &j in &path {
-            let joint = &model.joints[j];
-            match joint.kind {
-                JointKind::Unsupported => {
-                    return Err(KinematicsError::UnsupportedJoint {
-                        chain: spec.name.clone(),
-                        joint: joint.name.clone(),
-                        kind: "floating/planar/spherical".into(),
-                    })
-                }
-                JointKind::Fixed => acc *= joint.origin,
-                _ => {
-                    if let Some(&v) = held.get(&joint.name) {
-                        if !v.is_finite() {
-                            return Err(KinematicsError::InvalidSetting {
-                                field: format!("held.{}", joint.name),
-                                message: format!("{v} is not finite"),
-                            });
-                        }
-                        acc = acc * joint.origin * joint.motion(v);
-                    } else {
-                        // Previous z-aligned frame → this joint's z-aligned frame.
-                        let align = z_to(&joint.axis);
-                        let pre = IsometryMatrix3::from_parts(
-                            nalgebra::Translation3::identity(),
-                            prev_align.inverse(),
-                        ) * acc
-                            * joint.origin
-                            * IsometryMatrix3::from_parts(
-                                nalgebra::Translation3::identity(),
-                                align,
-                            );
-                        prev_align = align;
-                        segments.push(Segment {
-                            pre_translation_only: pre.rotation == Rotation3::identity(),
-                            pre,
-                            prismatic: joint.kind == JointKind::Prismatic,
-                        });
-                        joint_names.push(joint.name.clone());
-                        limits.push(joint.limits);
-                        acc = IsometryMatrix3::identity();
-                    }
-                }
-            }
+            fold.fold_joint(&model.joints[j], spec, held)?;
         }
+        let SegmentFold {
+            segments,
+            joint_names,
+            limits,
+            acc,
+            prev_align,
+        } = fold;
         if segments.is_empty() {
             return Err(KinematicsError::EmptyChain {
                 chain: spec.name.clone(),

@@ -184,84 +184,13 @@ impl RobotModel {
     }
 
     fn build(robot: &urdf_rs::Robot, origin: &str) -> Result<Self, KinematicsError> {
-        let mut link_index = HashMap::new();
-        let mut links = Vec::with_capacity(robot.links.len());
-        for l in &robot.links {
-            if link_index.insert(l.name.clone(), links.len()).is_some() {
-                return Err(KinematicsError::BadTree {
-                    origin: origin.into(),
-                    link: l.name.clone(),
-                    message: "link defined twice".into(),
-                });
-            }
-            links.push(l.name.clone());
-        }
+        let (links, link_index) = index_links(robot, origin)?;
         let mut parent_joint = vec![None; links.len()];
         let mut joints = Vec::with_capacity(robot.joints.len());
         let mut joint_index = HashMap::new();
         for j in &robot.joints {
-            let bad = |message: String| KinematicsError::BadJoint {
-                origin: origin.into(),
-                joint: j.name.clone(),
-                message,
-            };
-            let parent = *link_index
-                .get(&j.parent.link)
-                .ok_or_else(|| bad(format!("parent link `{}` is not defined", j.parent.link)))?;
-            let child = *link_index
-                .get(&j.child.link)
-                .ok_or_else(|| bad(format!("child link `{}` is not defined", j.child.link)))?;
-            let kind = match j.joint_type {
-                urdf_rs::JointType::Revolute => JointKind::Revolute,
-                urdf_rs::JointType::Continuous => JointKind::Continuous,
-                urdf_rs::JointType::Prismatic => JointKind::Prismatic,
-                urdf_rs::JointType::Fixed => JointKind::Fixed,
-                _ => JointKind::Unsupported,
-            };
-            let a = Vector3::from(j.axis.xyz.0);
-            if kind.is_movable() && !(a.norm() > 1e-9 && a.iter().all(|v| v.is_finite())) {
-                return Err(bad(format!(
-                    "axis {:?} is not a non-zero finite vector",
-                    a.as_slice()
-                )));
-            }
-            let axis = if a.norm() > 1e-9 {
-                Unit::new_normalize(a)
-            } else {
-                Vector3::x_axis()
-            };
-            let pose = urdf_pose(&j.origin);
-            if !pose.translation.vector.iter().all(|v| v.is_finite())
-                || !pose.rotation.matrix().iter().all(|v| v.is_finite())
-            {
-                return Err(bad("origin is not finite".into()));
-            }
-            let lim = &j.limit;
-            let limits = match kind {
-                JointKind::Continuous => JointLimits {
-                    lower: f64::NEG_INFINITY,
-                    upper: f64::INFINITY,
-                    velocity: positive_or_inf(lim.velocity),
-                    effort: positive_or_inf(lim.effort),
-                    acceleration: None,
-                },
-                JointKind::Revolute | JointKind::Prismatic => {
-                    if lim.lower.is_nan() || lim.upper.is_nan() || lim.lower > lim.upper {
-                        return Err(bad(format!(
-                            "position limits [{}, {}] are not an interval",
-                            lim.lower, lim.upper
-                        )));
-                    }
-                    JointLimits {
-                        lower: lim.lower,
-                        upper: lim.upper,
-                        velocity: positive_or_inf(lim.velocity),
-                        effort: positive_or_inf(lim.effort),
-                        acceleration: lim.acceleration.is_finite().then_some(lim.acceleration),
-                    }
-                }
-                _ => JointLimits::UNBOUNDED,
-            };
+            let joint = joint_model(j, &link_index, origin)?;
+            let child = joint.child;
             if parent_joint[child].is_some() {
                 return Err(KinematicsError::BadTree {
                     origin: origin.into(),
@@ -271,22 +200,9 @@ impl RobotModel {
             }
             parent_joint[child] = Some(joints.len());
             if joint_index.insert(j.name.clone(), joints.len()).is_some() {
-                return Err(bad("joint defined twice".into()));
+                return Err(bad_joint(origin, j, "joint defined twice".into()));
             }
-            joints.push(JointModel {
-                name: j.name.clone(),
-                kind,
-                parent,
-                child,
-                origin: pose,
-                axis,
-                limits,
-                mimic: j.mimic.as_ref().map(|m| Mimic {
-                    leader: m.joint.clone(),
-                    multiplier: m.multiplier.unwrap_or(1.0),
-                    offset: m.offset.unwrap_or(0.0),
-                }),
-            });
+            joints.push(joint);
         }
         let model = Self {
             name: robot.name.clone(),
@@ -444,6 +360,119 @@ fn positive_or_inf(v: f64) -> f64 {
     } else {
         f64::INFINITY
     }
+}
+
+/// The URDF's link names in order and their indices; a link defined twice is refused.
+fn index_links(
+    robot: &urdf_rs::Robot,
+    origin: &str,
+) -> Result<(Vec<String>, HashMap<String, usize>), KinematicsError> {
+    let mut link_index = HashMap::new();
+    let mut links = Vec::with_capacity(robot.links.len());
+    for l in &robot.links {
+        if link_index.insert(l.name.clone(), links.len()).is_some() {
+            return Err(KinematicsError::BadTree {
+                origin: origin.into(),
+                link: l.name.clone(),
+                message: "link defined twice".into(),
+            });
+        }
+        links.push(l.name.clone());
+    }
+    Ok((links, link_index))
+}
+
+/// The error for a bad joint `j` of the URDF `origin`.
+fn bad_joint(origin: &str, j: &urdf_rs::Joint, message: String) -> KinematicsError {
+    KinematicsError::BadJoint {
+        origin: origin.into(),
+        joint: j.name.clone(),
+        message,
+    }
+}
+
+/// One URDF joint checked and converted (links, kind, axis, origin, limits, mimic).
+fn joint_model(
+    j: &urdf_rs::Joint,
+    link_index: &HashMap<String, usize>,
+    origin: &str,
+) -> Result<JointModel, KinematicsError> {
+    let bad = |message: String| bad_joint(origin, j, message);
+    let parent = *link_index
+        .get(&j.parent.link)
+        .ok_or_else(|| bad(format!("parent link `{}` is not defined", j.parent.link)))?;
+    let child = *link_index
+        .get(&j.child.link)
+        .ok_or_else(|| bad(format!("child link `{}` is not defined", j.child.link)))?;
+    let kind = match j.joint_type {
+        urdf_rs::JointType::Revolute => JointKind::Revolute,
+        urdf_rs::JointType::Continuous => JointKind::Continuous,
+        urdf_rs::JointType::Prismatic => JointKind::Prismatic,
+        urdf_rs::JointType::Fixed => JointKind::Fixed,
+        _ => JointKind::Unsupported,
+    };
+    let a = Vector3::from(j.axis.xyz.0);
+    if kind.is_movable() && !(a.norm() > 1e-9 && a.iter().all(|v| v.is_finite())) {
+        return Err(bad(format!(
+            "axis {:?} is not a non-zero finite vector",
+            a.as_slice()
+        )));
+    }
+    let axis = if a.norm() > 1e-9 {
+        Unit::new_normalize(a)
+    } else {
+        Vector3::x_axis()
+    };
+    let pose = urdf_pose(&j.origin);
+    if !pose.translation.vector.iter().all(|v| v.is_finite())
+        || !pose.rotation.matrix().iter().all(|v| v.is_finite())
+    {
+        return Err(bad("origin is not finite".into()));
+    }
+    let limits = joint_limits(kind, &j.limit).map_err(bad)?;
+    Ok(JointModel {
+        name: j.name.clone(),
+        kind,
+        parent,
+        child,
+        origin: pose,
+        axis,
+        limits,
+        mimic: j.mimic.as_ref().map(|m| Mimic {
+            leader: m.joint.clone(),
+            multiplier: m.multiplier.unwrap_or(1.0),
+            offset: m.offset.unwrap_or(0.0),
+        }),
+    })
+}
+
+/// A joint's limits by its kind; position limits that are not an interval are refused.
+fn joint_limits(kind: JointKind, lim: &urdf_rs::JointLimit) -> Result<JointLimits, String> {
+    Ok(match kind {
+        JointKind::Continuous => JointLimits {
+            lower: f64::NEG_INFINITY,
+            upper: f64::INFINITY,
+            velocity: positive_or_inf(lim.velocity),
+            effort: positive_or_inf(lim.effort),
+            acceleration: None,
+        },
+        JointKind::Revolute | JointKind::Prismatic => {
+            if lim.lower.is_nan() || lim.upper.is_nan() || lim.lower > lim.upper {
+                return Err(format!(
+                    "position limits [{}, {}] are not an interval",
+                    lim.lower, lim.upper
+                ));
+            }
+            JointLimits {
+                lower: lim.lower,
+                upper: lim.upper,
+                velocity: positive_or_inf(lim.velocity),
+                effort: positive_or_inf(lim.effort),
+                acceleration: lim.acceleration.is_finite().then_some(lim.acceleration),
+            }
+        }
+        _ => JointLimits::UNBOUNDED,
+    })
 }
 
 fn truncated_list<'a>(names: impl Iterator<Item = &'a String>) -> String {

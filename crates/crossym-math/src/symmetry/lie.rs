@@ -178,6 +178,107 @@ fn skew(u: &Vector3<f64>) -> DMatrix<f64> {
     )
 }
 
+/// The action's centre: zero when not given, else a finite point of dimension `block_dim`.
+fn checked_center(
+    name: &str,
+    block_dim: usize,
+    center: Option<&[f64]>,
+) -> Result<DVector<f64>, AffineActionError> {
+    match center {
+        None => Ok(DVector::zeros(block_dim)),
+        Some(c) if c.len() == block_dim && c.iter().all(|v| v.is_finite()) => {
+            Ok(DVector::from_column_slice(c))
+        }
+        Some(c) => Err(AffineActionError::Center {
+            name: name.into(),
+            center: c.to_vec(),
+            block_dim,
+        }),
+    }
+}
+
+/// The Lie algebra's generators `(A_i, b_i)` of `spec` on blocks of dimension `d`.
+type Generators = (Vec<DMatrix<f64>>, Vec<DVector<f64>>);
+
+/// The generators of `spec` acting on blocks of dimension `d`, checked.
+fn generators(name: &str, spec: &LieGroupSpec, d: usize) -> Result<Generators, AffineActionError> {
+    let zero_b = || DVector::zeros(d);
+    Ok(match spec {
+        LieGroupSpec::So2 { axis } => so2_generator(name, *axis, d)?,
+        LieGroupSpec::So3 => {
+            if d != 3 {
+                return Err(AffineActionError::So3Blocks { name: name.into() });
+            }
+            (
+                vec![
+                    skew(&Vector3::x()),
+                    skew(&Vector3::y()),
+                    skew(&Vector3::z()),
+                ],
+                vec![zero_b(), zero_b(), zero_b()],
+            )
+        }
+        LieGroupSpec::Scaling => (vec![DMatrix::identity(d, d)], vec![zero_b()]),
+        LieGroupSpec::Translation { directions } => translation_generators(name, directions, d)?,
+    })
+}
+
+/// The rotation generator of SO(2): the plane's, or about `axis` in 3-D blocks.
+fn so2_generator(
+    name: &str,
+    axis: Option<[f64; 3]>,
+    d: usize,
+) -> Result<Generators, AffineActionError> {
+    let zero_b = || DVector::zeros(d);
+    if d == 2 {
+        if axis.is_some_and(|a| a != [0.0, 0.0, 1.0]) {
+            return Err(AffineActionError::PlanarAxis { name: name.into() });
+        }
+        Ok((
+            vec![DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 1.0, 0.0])],
+            vec![zero_b()],
+        ))
+    } else {
+        let a = Vector3::from(
+            axis.ok_or_else(|| AffineActionError::MissingAxis { name: name.into() })?,
+        );
+        if a.norm() <= 1e-12 || a.iter().any(|v| !v.is_finite()) {
+            return Err(AffineActionError::Axis {
+                name: name.into(),
+                axis: a,
+            });
+        }
+        Ok((vec![skew(&a.normalize())], vec![zero_b()]))
+    }
+}
+
+/// The translation generators along `directions` (all axes when empty), each checked.
+fn translation_generators(
+    name: &str,
+    directions: &[Vec<f64>],
+    d: usize,
+) -> Result<Generators, AffineActionError> {
+    let dirs: Vec<Vec<f64>> = if directions.is_empty() {
+        (0..d)
+            .map(|i| (0..d).map(|j| f64::from(u8::from(i == j))).collect())
+            .collect()
+    } else {
+        directions.to_vec()
+    };
+    let mut offs = Vec::new();
+    for v in dirs {
+        if v.len() != d || v.iter().any(|x| !x.is_finite()) {
+            return Err(AffineActionError::Direction {
+                name: name.into(),
+                direction: v,
+                dim: d,
+            });
+        }
+        offs.push(DVector::from_vec(v));
+    }
+    Ok((offs.iter().map(|_| DMatrix::zeros(d, d)).collect(), offs))
+}
+
 impl AffineAction {
     /// Builds the action of `spec` on `blocks` blocks of dimension `block_dim` about `center`.
     pub fn new(
@@ -196,80 +297,8 @@ impl AffineAction {
         if blocks == 0 {
             return Err(AffineActionError::NoBlocks { name: name.into() });
         }
-        let center = match center {
-            None => DVector::zeros(block_dim),
-            Some(c) if c.len() == block_dim && c.iter().all(|v| v.is_finite()) => {
-                DVector::from_column_slice(c)
-            }
-            Some(c) => {
-                return Err(AffineActionError::Center {
-                    name: name.into(),
-                    center: c.to_vec(),
-                    block_dim,
-                })
-            }
-        };
-        let d = block_dim;
-        let zero_b = || DVector::zeros(d);
-        let (linear, offset): (Vec<DMatrix<f64>>, Vec<DVector<f64>>) = match &spec {
-            LieGroupSpec::So2 { axis } => {
-                if d == 2 {
-                    if axis.is_some_and(|a| a != [0.0, 0.0, 1.0]) {
-                        return Err(AffineActionError::PlanarAxis { name: name.into() });
-                    }
-                    (
-                        vec![DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 1.0, 0.0])],
-                        vec![zero_b()],
-                    )
-                } else {
-                    let a = Vector3::from(
-                        axis.ok_or_else(|| AffineActionError::MissingAxis { name: name.into() })?,
-                    );
-                    if a.norm() <= 1e-12 || a.iter().any(|v| !v.is_finite()) {
-                        return Err(AffineActionError::Axis {
-                            name: name.into(),
-                            axis: a,
-                        });
-                    }
-                    (vec![skew(&a.normalize())], vec![zero_b()])
-                }
-            }
-            LieGroupSpec::So3 => {
-                if d != 3 {
-                    return Err(AffineActionError::So3Blocks { name: name.into() });
-                }
-                (
-                    vec![
-                        skew(&Vector3::x()),
-                        skew(&Vector3::y()),
-                        skew(&Vector3::z()),
-                    ],
-                    vec![zero_b(), zero_b(), zero_b()],
-                )
-            }
-            LieGroupSpec::Scaling => (vec![DMatrix::identity(d, d)], vec![zero_b()]),
-            LieGroupSpec::Translation { directions } => {
-                let dirs: Vec<Vec<f64>> = if directions.is_empty() {
-                    (0..d)
-                        .map(|i| (0..d).map(|j| f64::from(u8::from(i == j))).collect())
-                        .collect()
-                } else {
-                    directions.clone()
-                };
-                let mut offs = Vec::new();
-                for v in dirs {
-                    if v.len() != d || v.iter().any(|x| !x.is_finite()) {
-                        return Err(AffineActionError::Direction {
-                            name: name.into(),
-                            direction: v,
-                            dim: d,
-                        });
-                    }
-                    offs.push(DVector::from_vec(v));
-                }
-                (offs.iter().map(|_| DMatrix::zeros(d, d)).collect(), offs)
-            }
-        };
+        let center = checked_center(name, block_dim, center)?;
+        let (linear, offset) = generators(name, &spec, block_dim)?;
         Ok(Self {
             name: name.into(),
             spec,

@@ -306,24 +306,13 @@ where
     let big_n = settings.samples;
     let mut rng = SplitMix64::new(settings.seed);
     let mut ws = kin.workspace();
-    let mut qs: Vec<Vec<f64>> = Vec::with_capacity(big_n);
-    let mut x = DMatrix::zeros(big_n, m);
-    let mut y = DMatrix::zeros(big_n, m);
-    let mut gq = vec![0.0; n];
-    let mut size: f64 = 0.0;
-    let mut finite = true;
-    for s in 0..big_n {
-        let mut q = vec![0.0; n];
-        sample_within_limits(kin.limits(), &mut rng, &mut q);
-        let fx = kin.forward(&q, &mut ws);
-        size = size.max(fx.norm());
-        x.row_mut(s).copy_from(&fx.transpose());
-        action(&q, &mut gq);
-        let fy = kin.forward(&gq, &mut ws);
-        finite &= fy.iter().all(|v| v.is_finite());
-        y.row_mut(s).copy_from(&fy.transpose());
-        qs.push(q);
-    }
+    let SamplePairs {
+        qs,
+        x,
+        y,
+        size,
+        finite,
+    } = sample_pairs(kin, &action, big_n, &mut rng, &mut ws);
     let scale = if size > 0.0 { size } else { 1.0 };
     let (linear, affine, rank) = if finite {
         let (l, rank) = fit_linear(&x, &y);
@@ -338,26 +327,12 @@ where
         .as_ref()
         .map_or(f64::INFINITY, |(l, b)| residual(&x, &y, l, Some(b)));
     let tol = settings.relative_tolerance * scale;
-    let (task_action, max_residual, affine_needed) = if linear_residual <= tol {
-        let l = linear.expect("finite fit");
-        let action = match nearest_signed_permutation(&l, settings.permutation_tolerance) {
-            Some(p) => DescendedAction::SignedPermutation(p),
-            None => DescendedAction::Linear(l),
-        };
-        (Some(action), linear_residual, false)
-    } else if affine_residual <= tol {
-        let (l, b) = affine.expect("finite fit");
-        (
-            Some(DescendedAction::Affine {
-                linear: l,
-                offset: b,
-            }),
-            affine_residual,
-            true,
-        )
-    } else {
-        (None, linear_residual.min(affine_residual), false)
-    };
+    let (task_action, max_residual, affine_needed) = choose_task_action(
+        (linear, linear_residual),
+        (affine, affine_residual),
+        tol,
+        settings.permutation_tolerance,
+    );
     let (fibre_residual, fibre_pairs) = if n > m && finite {
         fibre_test(kin, &action, &qs, settings, scale, &mut rng, &mut ws)
     } else {
@@ -385,6 +360,89 @@ where
         sample_rank: rank,
         samples: big_n,
     })
+}
+
+/// Sampled configurations `q_s` with their images `x_s = f(q_s)` and `y_s = f(Φ_Q(g, q_s))`.
+struct SamplePairs {
+    qs: Vec<Vec<f64>>,
+    x: DMatrix<f64>,
+    y: DMatrix<f64>,
+    /// Largest `|x_s|` (the workspace size).
+    size: f64,
+    /// Every `y_s` is finite.
+    finite: bool,
+}
+
+/// Samples `big_n` configurations within the joint limits and maps them and their images through `f`.
+fn sample_pairs<A>(
+    kin: &Kinematics,
+    action: &A,
+    big_n: usize,
+    rng: &mut SplitMix64,
+    ws: &mut KinematicsWorkspace,
+) -> SamplePairs
+where
+    A: Fn(&[f64], &mut [f64]),
+{
+    let (n, m) = (kin.dof(), kin.task_dim());
+    let mut qs: Vec<Vec<f64>> = Vec::with_capacity(big_n);
+    let mut x = DMatrix::zeros(big_n, m);
+    let mut y = DMatrix::zeros(big_n, m);
+    let mut gq = vec![0.0; n];
+    let mut size: f64 = 0.0;
+    let mut finite = true;
+    for s in 0..big_n {
+        let mut q = vec![0.0; n];
+        sample_within_limits(kin.limits(), rng, &mut q);
+        let fx = kin.forward(&q, ws);
+        size = size.max(fx.norm());
+        x.row_mut(s).copy_from(&fx.transpose());
+        action(&q, &mut gq);
+        let fy = kin.forward(&gq, ws);
+        finite &= fy.iter().all(|v| v.is_finite());
+        y.row_mut(s).copy_from(&fy.transpose());
+        qs.push(q);
+    }
+    SamplePairs {
+        qs,
+        x,
+        y,
+        size,
+        finite,
+    }
+}
+
+/// An affine fit `x ↦ L x + b`.
+type AffineFit = (DMatrix<f64>, DVector<f64>);
+
+/// The task action that fits within `tol` — linear (a signed permutation where one is
+/// near), else affine, else none — with its residual and whether the offset was needed.
+fn choose_task_action(
+    (linear, linear_residual): (Option<DMatrix<f64>>, f64),
+    (affine, affine_residual): (Option<AffineFit>, f64),
+    tol: f64,
+    permutation_tolerance: f64,
+) -> (Option<DescendedAction>, f64, bool) {
+    if linear_residual <= tol {
+        let l = linear.expect("finite fit");
+        let action = match nearest_signed_permutation(&l, permutation_tolerance) {
+            Some(p) => DescendedAction::SignedPermutation(p),
+            None => DescendedAction::Linear(l),
+        };
+        (Some(action), linear_residual, false)
+    } else if affine_residual <= tol {
+        let (l, b) = affine.expect("finite fit");
+        (
+            Some(DescendedAction::Affine {
+                linear: l,
+                offset: b,
+            }),
+            affine_residual,
+            true,
+        )
+    } else {
+        (None, linear_residual.min(affine_residual), false)
+    }
 }
 
 /// Relative singular-value cutoff of the least-squares fits.

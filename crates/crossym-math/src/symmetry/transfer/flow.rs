@@ -339,40 +339,13 @@ pub fn integrate_through(
     ws: &mut FlowWorkspace,
     visit: &mut dyn FnMut(usize, &[f64]),
 ) -> FlowStatus {
-    let d = y0.len();
-    debug_assert_eq!(ws.dim(), d);
-    ws.y.copy_from_slice(y0);
-    let Some(&last) = ts.last() else {
-        return FlowStatus::Done {
-            steps: 0,
-            rejected: 0,
-        };
+    let (mut next, dir, total) = match start_through(field, ts, y0, ws, visit) {
+        Ok(start) => start,
+        Err(status) => return status,
     };
-    let dir = if last < 0.0 { -1.0 } else { 1.0 };
-    if !checkpoints_ordered(ts, dir) {
-        return FlowStatus::NonFinite { t: 0.0 };
-    }
-    let mut next = 0; // first checkpoint not yet visited
-    let mut visit_reached = |next: &mut usize, s: f64, y: &[f64]| {
-        while *next < ts.len() && ts[*next].abs() <= s {
-            visit(*next, y);
-            *next += 1;
-        }
-    };
-    visit_reached(&mut next, 0.0, y0);
-    if next == ts.len() {
-        return FlowStatus::Done {
-            steps: 0,
-            rejected: 0,
-        };
-    }
-    let total = last.abs();
     let mut s = 0.0; // |time| done
     let mut steps = 0;
     let mut rejected = 0;
-    if !field.eval(&ws.y, &mut ws.k[0]) {
-        return FlowStatus::FieldUndefined { t: 0.0 };
-    }
     // `h` is the controller's step; a step is shortened to land on the next checkpoint
     // without changing `h`.
     let mut h = initial_step(&ws.y, &ws.k[0], ws.h_last, total, settings);
@@ -413,21 +386,9 @@ pub fn integrate_through(
             ws.y.copy_from_slice(&ws.y5);
             let (first, rest) = ws.k.split_at_mut(1);
             first[0].copy_from_slice(&rest[5]);
-            let grown = hh
-                * if rejected > 0 && err > 0.5 {
-                    fac.min(1.0)
-                } else {
-                    fac
-                };
-            // A step cut short by a checkpoint says little about the step size: keep the
-            // controller's step unless the error asks for a smaller one.
-            h = if landing && fac >= 1.0 {
-                h.max(grown)
-            } else {
-                grown
-            };
+            h = step_after_accept(h, hh, fac, err, rejected, landing);
             if landing {
-                visit_reached(&mut next, s, &ws.y);
+                visit_reached(ts, visit, &mut next, s, &ws.y);
             }
         } else {
             rejected += 1;
@@ -436,6 +397,76 @@ pub fn integrate_through(
     }
     ws.h_last = h;
     FlowStatus::Done { steps, rejected }
+}
+
+/// Checks the checkpoints, visits those at `t = 0` and evaluates the first stage into
+/// `ws`: `(first checkpoint not visited, direction ±1, |last checkpoint|)`, or the status
+/// to return at once.
+fn start_through(
+    field: &dyn VectorField,
+    ts: &[f64],
+    y0: &[f64],
+    ws: &mut FlowWorkspace,
+    visit: &mut dyn FnMut(usize, &[f64]),
+) -> Result<(usize, f64, f64), FlowStatus> {
+    let d = y0.len();
+    debug_assert_eq!(ws.dim(), d);
+    ws.y.copy_from_slice(y0);
+    let Some(&last) = ts.last() else {
+        return Err(FlowStatus::Done {
+            steps: 0,
+            rejected: 0,
+        });
+    };
+    let dir = if last < 0.0 { -1.0 } else { 1.0 };
+    if !checkpoints_ordered(ts, dir) {
+        return Err(FlowStatus::NonFinite { t: 0.0 });
+    }
+    let mut next = 0; // first checkpoint not yet visited
+    visit_reached(ts, visit, &mut next, 0.0, y0);
+    if next == ts.len() {
+        return Err(FlowStatus::Done {
+            steps: 0,
+            rejected: 0,
+        });
+    }
+    let total = last.abs();
+    if !field.eval(&ws.y, &mut ws.k[0]) {
+        return Err(FlowStatus::FieldUndefined { t: 0.0 });
+    }
+    Ok((next, dir, total))
+}
+
+/// Visits every checkpoint from `next` on with `|t| ≤ s` at the state `y`.
+fn visit_reached(
+    ts: &[f64],
+    visit: &mut dyn FnMut(usize, &[f64]),
+    next: &mut usize,
+    s: f64,
+    y: &[f64],
+) {
+    while *next < ts.len() && ts[*next].abs() <= s {
+        visit(*next, y);
+        *next += 1;
+    }
+}
+
+/// The controller's step after an accepted step `hh` (of the controller's `h`) with error
+/// `err` and growth factor `fac`.
+fn step_after_accept(h: f64, hh: f64, fac: f64, err: f64, rejected: usize, landing: bool) -> f64 {
+    let grown = hh
+        * if rejected > 0 && err > 0.5 {
+            fac.min(1.0)
+        } else {
+            fac
+        };
+    // A step cut short by a checkpoint says little about the step size: keep the
+    // controller's step unless the error asks for a smaller one.
+    if landing && fac >= 1.0 {
+        h.max(grown)
+    } else {
+        grown
+    }
 }
 
 /// True when the checkpoints are finite, on the side of 0 given by `dir` (±1) and

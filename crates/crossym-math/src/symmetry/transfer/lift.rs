@@ -223,28 +223,8 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
             if !self.task.eval(x, xdot) {
                 return Some(false);
             }
-            let norm = xp.iter().map(|a| a * a).sum::<f64>().sqrt();
-            if norm == 0.0 {
-                vp.fill(0.0);
-            } else {
-                let xn = x.iter().map(|a| a * a).sum::<f64>().sqrt();
-                let h = 1e-5 * xn.max(1.0) / norm;
-                // `u` takes the second probe's value (it is computed below).
-                for i in 0..m {
-                    probe[i] = x[i] + h * xp[i];
-                }
-                if !self.task.eval(probe, vp) {
-                    return Some(false);
-                }
-                for i in 0..m {
-                    probe[i] = x[i] - h * xp[i];
-                }
-                if !self.task.eval(probe, u) {
-                    return Some(false);
-                }
-                for i in 0..m {
-                    vp[i] = (vp[i] - u[i]) / (2.0 * h);
-                }
+            if !central_difference(&self.task, x, xp, probe, vp, u) {
+                return Some(false);
             }
         }
         if kin.factor(ws).status != PinvStatus::Regular {
@@ -274,6 +254,43 @@ impl<F: VectorField> VectorField for LiftedField<'_, F> {
         }
         Some(true)
     }
+}
+
+/// `vp = dv[xp]` at `x` by a central difference along `xp` (`u` takes the second probe's
+/// value); false where the task field is undefined at a probe.
+fn central_difference<F: VectorField>(
+    task: &F,
+    x: &[f64],
+    xp: &[f64],
+    probe: &mut [f64],
+    vp: &mut [f64],
+    u: &mut [f64],
+) -> bool {
+    let m = xp.len();
+    let norm = xp.iter().map(|a| a * a).sum::<f64>().sqrt();
+    if norm == 0.0 {
+        vp.fill(0.0);
+    } else {
+        let xn = x.iter().map(|a| a * a).sum::<f64>().sqrt();
+        let h = 1e-5 * xn.max(1.0) / norm;
+        // `u` takes the second probe's value (it is computed below).
+        for i in 0..m {
+            probe[i] = x[i] + h * xp[i];
+        }
+        if !task.eval(probe, vp) {
+            return false;
+        }
+        for i in 0..m {
+            probe[i] = x[i] - h * xp[i];
+        }
+        if !task.eval(probe, u) {
+            return false;
+        }
+        for i in 0..m {
+            vp[i] = (vp[i] - u[i]) / (2.0 * h);
+        }
+    }
+    true
 }
 
 /// `out = J v` for the column-major `m × n` task Jacobian (allocation-free; column by

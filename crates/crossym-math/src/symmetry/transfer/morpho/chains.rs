@@ -426,32 +426,7 @@ fn pair_chains(
     settings: &MorphoSettings,
 ) -> Pairing {
     let k = ga.origins.len();
-    let candidates: Vec<Vec<(usize, f64)>> = (0..k)
-        .map(|i| {
-            (0..k)
-                .filter(|&j| ga.prismatic[i] == gb.prismatic[j])
-                .filter(|&j| {
-                    let gap = s * gb.origins[j] - ga.origins[i];
-                    let dist = if ga.prismatic[i] {
-                        gap.norm()
-                    } else {
-                        gap.cross(&ga.axes[i]).norm()
-                    };
-                    dist <= position_tolerance
-                })
-                .filter_map(|j| {
-                    let m = mirrored_axis(gb, s, j);
-                    if (m - ga.axes[i]).norm() <= settings.axis_tolerance {
-                        Some((j, 1.0))
-                    } else if (m + ga.axes[i]).norm() <= settings.axis_tolerance {
-                        Some((j, -1.0))
-                    } else {
-                        None
-                    }
-                })
-                .collect()
-        })
-        .collect();
+    let candidates = axis_candidates(ga, gb, s, position_tolerance, settings);
     let mut chosen: Vec<Option<(usize, f64)>> = vec![None; k];
     let mut used = vec![false; k];
     for i in 0..k {
@@ -476,6 +451,69 @@ fn pair_chains(
             }
         }
     }
+    let unmatched = pair_unmatched(ga, gb, s, &mut chosen, &mut used);
+    let pairing = chosen
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let (j, sign) = c.expect("every joint is paired");
+            (i, j, sign)
+        })
+        .collect();
+    Pairing {
+        pairing,
+        unmatched,
+        ambiguous,
+    }
+}
+
+/// Step 1: per joint `i` of `a`, the joints `j` of `b` of its kind whose mirrored axis line
+/// matches `i`'s (within `position_tolerance` in m), with the sign.
+fn axis_candidates(
+    ga: &JointGeometry,
+    gb: &JointGeometry,
+    s: &Matrix3<f64>,
+    position_tolerance: f64,
+    settings: &MorphoSettings,
+) -> Vec<Vec<(usize, f64)>> {
+    let k = ga.origins.len();
+    (0..k)
+        .map(|i| {
+            (0..k)
+                .filter(|&j| ga.prismatic[i] == gb.prismatic[j])
+                .filter(|&j| {
+                    let gap = s * gb.origins[j] - ga.origins[i];
+                    let dist = if ga.prismatic[i] {
+                        gap.norm()
+                    } else {
+                        gap.cross(&ga.axes[i]).norm()
+                    };
+                    dist <= position_tolerance
+                })
+                .filter_map(|j| {
+                    let m = mirrored_axis(gb, s, j);
+                    if (m - ga.axes[i]).norm() <= settings.axis_tolerance {
+                        Some((j, 1.0))
+                    } else if (m + ga.axes[i]).norm() <= settings.axis_tolerance {
+                        Some((j, -1.0))
+                    } else {
+                        None
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Step 3: pairs the joints still without a partner, by index order; returns them.
+fn pair_unmatched(
+    ga: &JointGeometry,
+    gb: &JointGeometry,
+    s: &Matrix3<f64>,
+    chosen: &mut [Option<(usize, f64)>],
+    used: &mut [bool],
+) -> Vec<usize> {
+    let k = ga.origins.len();
     let mut unmatched = Vec::new();
     for i in 0..k {
         if chosen[i].is_none() {
@@ -494,19 +532,7 @@ fn pair_chains(
             used[j] = true;
         }
     }
-    let pairing = chosen
-        .iter()
-        .enumerate()
-        .map(|(i, c)| {
-            let (j, sign) = c.expect("every joint is paired");
-            (i, j, sign)
-        })
-        .collect();
-    Pairing {
-        pairing,
-        unmatched,
-        ambiguous,
-    }
+    unmatched
 }
 
 /// `ρ_Q = [[0, P], [P⁻¹, 0]]` and `ρ_X = [[0, P_X], [P_X⁻¹, 0]]` on the stacked `q` and `x`

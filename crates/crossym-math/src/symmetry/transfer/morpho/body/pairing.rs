@@ -83,48 +83,7 @@ pub(super) fn pair_joints(
 ) -> Result<SignedPermutation, String> {
     let n = lines0.len();
     let pos_tol = settings.position_tolerance * st.size;
-    let cand: Vec<Vec<(usize, f64)>> = (0..n)
-        .map(|i| {
-            (0..n)
-                .filter(|&k| st.prismatic[k] == st.prismatic[i] && st.depth[k] == st.depth[i])
-                .filter_map(|k| {
-                    line_match(
-                        o,
-                        lines0[i],
-                        lines0[k],
-                        st.prismatic[i],
-                        pos_tol,
-                        settings.axis_tolerance,
-                    )
-                    .map(|s| (k, s))
-                })
-                .collect::<Vec<_>>()
-        })
-        .collect();
-    // Several lines may coincide (wheels on one axle, collinear wrist axes): try first the
-    // partner whose joint origin is the mirrored point.
-    let cand: Vec<Vec<(usize, f64)>> = cand
-        .into_iter()
-        .enumerate()
-        .map(|(i, mut c)| {
-            // On a tie (two arms drawn on top of each other at q = 0) the swap comes first.
-            let key = |k: usize| {
-                let gap = (o * lines0[i].0 - lines0[k].0).norm();
-                (gap > pos_tol, gap, k == i)
-            };
-            c.sort_by(|a, b| {
-                let (ka, kb) = (key(a.0), key(b.0));
-                ka.0.cmp(&kb.0)
-                    .then(if ka.0 {
-                        ka.1.total_cmp(&kb.1)
-                    } else {
-                        std::cmp::Ordering::Equal
-                    })
-                    .then(ka.2.cmp(&kb.2))
-            });
-            c
-        })
-        .collect();
+    let cand = joint_candidates(st, lines0, o, settings, pos_tol);
     if let Some(i) = (0..n).find(|&i| cand[i].is_empty()) {
         return Err(format!(
             "joint `{}` has no mirrored counterpart",
@@ -146,6 +105,65 @@ pub(super) fn pair_joints(
             "no pairing of the joints preserves the tree".into()
         });
     }
+    signed_permutation_of(&image)
+}
+
+/// For each joint, the joints of its kind and depth whose line `O` maps onto its line, with
+/// the sign, the partner whose origin is the mirrored point first.
+fn joint_candidates(
+    st: &Structure,
+    lines0: &[(Vector3<f64>, Vector3<f64>)],
+    o: &Matrix3<f64>,
+    settings: &BodySettings,
+    pos_tol: f64,
+) -> Vec<Vec<(usize, f64)>> {
+    let n = lines0.len();
+    let cand: Vec<Vec<(usize, f64)>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .filter(|&k| st.prismatic[k] == st.prismatic[i] && st.depth[k] == st.depth[i])
+                .filter_map(|k| {
+                    line_match(
+                        o,
+                        lines0[i],
+                        lines0[k],
+                        st.prismatic[i],
+                        pos_tol,
+                        settings.axis_tolerance,
+                    )
+                    .map(|s| (k, s))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    // Several lines may coincide (wheels on one axle, collinear wrist axes): try first the
+    // partner whose joint origin is the mirrored point.
+    cand.into_iter()
+        .enumerate()
+        .map(|(i, mut c)| {
+            // On a tie (two arms drawn on top of each other at q = 0) the swap comes first.
+            let key = |k: usize| {
+                let gap = (o * lines0[i].0 - lines0[k].0).norm();
+                (gap > pos_tol, gap, k == i)
+            };
+            c.sort_by(|a, b| {
+                let (ka, kb) = (key(a.0), key(b.0));
+                ka.0.cmp(&kb.0)
+                    .then(if ka.0 {
+                        ka.1.total_cmp(&kb.1)
+                    } else {
+                        std::cmp::Ordering::Equal
+                    })
+                    .then(ka.2.cmp(&kb.2))
+            });
+            c
+        })
+        .collect()
+}
+
+/// The signed permutation acting on joint values that sends joint `i` to its image.
+fn signed_permutation_of(image: &[Option<(usize, f64)>]) -> Result<SignedPermutation, String> {
+    let n = image.len();
     let (perm, signs): (Vec<usize>, Vec<f64>) = image
         .iter()
         .map(|c| c.expect("every joint assigned"))
