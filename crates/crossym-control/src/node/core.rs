@@ -11,6 +11,7 @@ use super::command::Command;
 use super::config::validate_tracking;
 use super::config::NodeConfig;
 use super::config::OutputMode;
+use super::counters::{bump, Counters};
 use super::error::NodeError;
 use super::feasibility::feasibility;
 use super::fit::{checked_domain, checked_policy};
@@ -75,15 +76,10 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     halted: bool,
     halted_condition_seq: u64,
     tracking_high_since: Option<f64>,
-    restarts: u64,
-    not_following_ticks: u64,
-    tracking_warning_ticks: u64,
     tracking_error: f64,
     // Position modes: held-robot and locked-joint detection, and the node's reaction.
     motion: MotionSupervisor,
     held: Held,
-    held_events: u64,
-    locked_events: u64,
     locked_joint: Option<usize>,
     // Subscribers matched on the command topic (`None`: not known), whether one ever
     // matched, and whether the next fresh tick restarts from the measured state (a
@@ -96,18 +92,13 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     band: SingularityBand,
     singular: SingularityReport,
     paused: bool,
-    paused_ticks: u64,
     /// Lifecycle state not active: braking, then no command.
     inactive: bool,
     velocity_scale: f64,
     bounds: RuntimeBounds,
-    // Status.
+    // Status: the running totals, the last tick's code.
+    counters: Counters,
     code: StatusCode,
-    ticks: u64,
-    stale_ticks: u64,
-    fallback_ticks: u64,
-    nonfinite_ticks: u64,
-    infeasible_ticks: u64,
     active: u32,
     age_s: f64,
     timing: TickTiming,
@@ -236,14 +227,9 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             halted: false,
             halted_condition_seq: 0,
             tracking_high_since: None,
-            restarts: 0,
-            not_following_ticks: 0,
-            tracking_warning_ticks: 0,
             tracking_error: 0.0,
             motion: MotionSupervisor::new(n, cfg.motion, motion_delay),
             held: Held::Clear,
-            held_events: 0,
-            locked_events: 0,
             locked_joint: None,
             command_subscribers: None,
             had_subscriber: false,
@@ -256,16 +242,11 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
                 condition: f64::NAN,
             },
             paused: false,
-            paused_ticks: 0,
             inactive: false,
             velocity_scale: cfg.velocity_scale,
             bounds,
+            counters: Counters::default(),
             code: StatusCode::StaleJointStates,
-            ticks: 0,
-            stale_ticks: 0,
-            fallback_ticks: 0,
-            nonfinite_ticks: 0,
-            infeasible_ticks: 0,
             active: 0,
             age_s: -1.0,
             timing: TickTiming::new(cfg.period_s),
@@ -435,13 +416,13 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         if let Motion::Held { .. } = motion {
             // Hold where the robot is (no command away from it while it cannot move), then
             // try again: a release finds the commands on the measured state.
-            self.held_events = self.held_events.saturating_add(1);
+            bump(&mut self.counters.held_events);
             self.restart_at_rest(now_s);
             self.held = Held::Dwell(now_s + self.cfg.motion.held_dwell_s);
             return Err(self.braking(now_s, out, StatusCode::RobotHeld));
         }
         let locked = if let Motion::Locked { joint } = motion {
-            self.locked_events = self.locked_events.saturating_add(1);
+            bump(&mut self.counters.locked_events);
             self.locked_joint = Some(joint);
             true
         } else {
@@ -457,7 +438,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             // Repeated restarts: the robot does not follow. Hold where the commands are.
             self.halted = true;
             self.halted_condition_seq = self.gate.inputs.condition_seq;
-            self.not_following_ticks = self.not_following_ticks.saturating_add(1);
+            bump(&mut self.counters.not_following_ticks);
             self.tracking_high_since = None;
             return Err(self.braking(now_s, out, StatusCode::RobotNotFollowing));
         }
@@ -594,7 +575,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     /// Records a restart at `now_s`; true when it makes more than `max_restarts` within
     /// `restart_window_s` (the robot does not follow).
     fn count_restart(&mut self, now_s: f64) -> bool {
-        self.restarts = self.restarts.saturating_add(1);
+        bump(&mut self.counters.restarts);
         let k = self.restart_times.len();
         self.restart_head = (self.restart_head + 1) % k;
         self.restart_times[self.restart_head] = now_s;
@@ -614,7 +595,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     }
 
     fn tick_inner(&mut self, now_s: f64, out: &mut Command) -> TickReport {
-        self.ticks = self.ticks.saturating_add(1);
+        bump(&mut self.counters.ticks);
         let fresh = match self.gate.inputs.state_time_s {
             Some(t) => {
                 self.age_s = now_s - t;
@@ -628,7 +609,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             }
         };
         if !fresh {
-            self.stale_ticks = self.stale_ticks.saturating_add(1);
+            bump(&mut self.counters.stale_ticks);
         }
         if self.inactive {
             // Publishes the braking commands up to the first zero one (a deactivation),
@@ -659,14 +640,14 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         // restarts from the measured state when the robot is not where the braking
         // commands left it (moved by hand); else the commands go on from there.
         if self.paused {
-            self.paused_ticks = self.paused_ticks.saturating_add(1);
+            bump(&mut self.counters.paused_ticks);
             return self.braking(now_s, out, StatusCode::Paused);
         }
         // Position modes: a robot found not following stays held (braking, then holding the
         // last command) until a new condition is accepted.
         if self.halted {
             if self.gate.inputs.condition_seq == self.halted_condition_seq {
-                self.not_following_ticks = self.not_following_ticks.saturating_add(1);
+                bump(&mut self.counters.not_following_ticks);
                 return self.braking(now_s, out, StatusCode::RobotNotFollowing);
             }
             // A new condition: start again from the measured state, with a clean count.
@@ -685,7 +666,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         let mut resumed = false;
         if std::mem::take(&mut self.resume) && self.is_position() && self.has_hold {
             self.has_hold = false;
-            self.restarts = self.restarts.saturating_add(1);
+            bump(&mut self.counters.restarts);
             resumed = true;
         }
         // Position modes: the next command continues the last commanded position, unless
@@ -722,9 +703,10 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             // The accepted condition's flows fail from here: no policy velocity (the filter
             // replaces the non-finite output by 0 and brakes within the limits).
             self.v_policy.fill(f64::NAN);
-            self.infeasible_ticks = self.infeasible_ticks.saturating_add(1);
+            bump(&mut self.counters.infeasible_ticks);
         }
-        self.output.apply(self.ticks, q, &mut self.v_policy);
+        self.output
+            .apply(self.counters.ticks, q, &mut self.v_policy);
         // The operator's scale, then the singularity band (on the scaled command: its
         // look-ahead follows the motion actually asked for).
         for v in self.v_policy.iter_mut() {
@@ -774,7 +756,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
             let publish = self.brake(now_s, out);
             self.code = StatusCode::SafetyFallback;
-            self.fallback_ticks = self.fallback_ticks.saturating_add(1);
+            bump(&mut self.counters.fallback_ticks);
             self.active = 0;
             return TickReport {
                 code: self.code,
@@ -790,11 +772,11 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         self.v_last.copy_from_slice(&out.velocities);
         self.active = report.active;
         if report.status == SafetyStatus::Fallback {
-            self.fallback_ticks = self.fallback_ticks.saturating_add(1);
+            bump(&mut self.counters.fallback_ticks);
         }
         // The NaN of an infeasible condition is reported as such, not as a policy fault.
         if report.policy_nonfinite && !infeasible {
-            self.nonfinite_ticks = self.nonfinite_ticks.saturating_add(1);
+            bump(&mut self.counters.nonfinite_ticks);
         }
         let rejected = inputs.joint_state_rejected || inputs.condition_rejected;
         self.code = tick_code(
@@ -846,7 +828,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         let since = *self.tracking_high_since.get_or_insert(now_s);
         let lagging = now_s - since >= self.cfg.safety.tracking_window_s.max(self.cfg.period_s);
         if lagging {
-            self.tracking_warning_ticks = self.tracking_warning_ticks.saturating_add(1);
+            bump(&mut self.counters.tracking_warning_ticks);
         }
         lagging
     }
@@ -954,15 +936,15 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             active_constraints: self.active,
             rejected_joint_states: self.gate.inputs.rejected_joint_states,
             rejected_conditions: self.gate.inputs.rejected_conditions,
-            ticks: self.ticks,
-            stale_ticks: self.stale_ticks,
-            fallback_ticks: self.fallback_ticks,
-            nonfinite_ticks: self.nonfinite_ticks,
-            infeasible_ticks: self.infeasible_ticks,
+            ticks: self.counters.ticks,
+            stale_ticks: self.counters.stale_ticks,
+            fallback_ticks: self.counters.fallback_ticks,
+            nonfinite_ticks: self.counters.nonfinite_ticks,
+            infeasible_ticks: self.counters.infeasible_ticks,
             joint_state_age_s: self.age_s,
-            restarts: self.restarts,
-            not_following_ticks: self.not_following_ticks,
-            tracking_warning_ticks: self.tracking_warning_ticks,
+            restarts: self.counters.restarts,
+            not_following_ticks: self.counters.not_following_ticks,
+            tracking_warning_ticks: self.counters.tracking_warning_ticks,
             tracking_error: self.tracking_error,
             tick_time_us: self.timing.last_us,
             tick_time_max_us: self.timing.max_us,
@@ -977,8 +959,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             period_code,
             period_ticks,
             period,
-            held_events: self.held_events,
-            locked_events: self.locked_events,
+            held_events: self.counters.held_events,
+            locked_events: self.counters.locked_events,
             locked_joint: self.locked_joint,
             command_subscribers: self.command_subscribers,
         }
@@ -986,17 +968,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
 
     /// The running totals of the transient events the status counts per period.
     fn event_totals(&self) -> EventTotals {
-        let i = &self.gate.inputs;
-        EventTotals {
-            restarts: self.restarts,
-            held: self.held_events,
-            locked: self.locked_events,
-            rejected: u64::from(i.rejected_joint_states) + u64::from(i.rejected_conditions),
-            stale_ticks: self.stale_ticks,
-            fallback_ticks: self.fallback_ticks,
-            late_ticks: self.timing.late,
-            missed_ticks: self.timing.missed,
-        }
+        self.counters.event_totals(&self.gate.inputs, &self.timing)
     }
 
     /// Ends the status period (after its status was published): the next snapshot's

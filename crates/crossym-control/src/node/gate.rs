@@ -43,7 +43,7 @@ pub struct Inputs {
 }
 
 impl Inputs {
-    fn new(n: usize, condition: Condition) -> Self {
+    pub(crate) fn new(n: usize, condition: Condition) -> Self {
         Self {
             q: vec![0.0; n],
             state_time_s: None,

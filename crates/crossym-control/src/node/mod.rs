@@ -32,6 +32,7 @@ mod code;
 mod command;
 mod config;
 mod core;
+mod counters;
 mod error;
 mod feasibility;
 mod fit;
