@@ -17,8 +17,11 @@ use super::feasibility::feasibility;
 use super::fit::{checked_domain, checked_policy};
 use super::gate::InputGate;
 use super::gate::Inputs;
+use super::link::ControllerLink;
 use super::motion::{Motion, MotionSupervisor};
-use super::operator::{OperatorRefusal, OperatorRequest, RuntimeBounds, RuntimeSettings};
+use super::operator::{
+    OperatorEffect, OperatorRefusal, OperatorRequest, OperatorState, RuntimeBounds, RuntimeSettings,
+};
 use super::period::{EventTotals, StatusPeriod};
 use super::rejection::Rejection;
 use super::singularity::{SingularityBand, SingularityReport, SingularityStatus};
@@ -84,18 +87,12 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     // Subscribers matched on the command topic (`None`: not known), whether one ever
     // matched, and whether the next fresh tick restarts from the measured state (a
     // controller switched back on).
-    command_subscribers: Option<u32>,
-    had_subscriber: bool,
-    resume: bool,
+    link: ControllerLink,
     motion_seq: u64,
     // Operator controls: the singularity band, pause, the velocity scale, what may change.
     band: SingularityBand,
     singular: SingularityReport,
-    paused: bool,
-    /// Lifecycle state not active: braking, then no command.
-    inactive: bool,
-    velocity_scale: f64,
-    bounds: RuntimeBounds,
+    operator: OperatorState,
     // Status: the running totals, the last tick's code.
     counters: Counters,
     code: StatusCode,
@@ -231,9 +228,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             motion: MotionSupervisor::new(n, cfg.motion, motion_delay),
             held: Held::Clear,
             locked_joint: None,
-            command_subscribers: None,
-            had_subscriber: false,
-            resume: false,
+            link: ControllerLink::default(),
             motion_seq: 0,
             band,
             singular: SingularityReport {
@@ -241,10 +236,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
                 factor: 1.0,
                 condition: f64::NAN,
             },
-            paused: false,
-            inactive: false,
-            velocity_scale: cfg.velocity_scale,
-            bounds,
+            operator: OperatorState::new(cfg.velocity_scale, bounds),
             counters: Counters::default(),
             code: StatusCode::StaleJointStates,
             active: 0,
@@ -611,7 +603,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         if !fresh {
             bump(&mut self.counters.stale_ticks);
         }
-        if self.inactive {
+        if self.operator.inactive {
             // Publishes the braking commands up to the first zero one (a deactivation),
             // then nothing: an inactive node commands nothing (the robot's controller
             // holds the last command).
@@ -624,8 +616,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         // start again from the measured state when one matches again. A driver that went
         // away altogether (its joint states stale too) is reported as stale: without a
         // measured state that is the graver fault.
-        if self.had_subscriber && self.command_subscribers == Some(0) {
-            self.resume = true;
+        if self.link.lost() {
             let code = if fresh {
                 StatusCode::NoCommandSubscriber
             } else {
@@ -639,7 +630,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         // Joint states back after a silence (a driver restarting): the hull test below
         // restarts from the measured state when the robot is not where the braking
         // commands left it (moved by hand); else the commands go on from there.
-        if self.paused {
+        if self.operator.paused {
             bump(&mut self.counters.paused_ticks);
             return self.braking(now_s, out, StatusCode::Paused);
         }
@@ -664,7 +655,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             self.has_hold = false;
         }
         let mut resumed = false;
-        if std::mem::take(&mut self.resume) && self.is_position() && self.has_hold {
+        if self.link.take_resume() && self.is_position() && self.has_hold {
             self.has_hold = false;
             bump(&mut self.counters.restarts);
             resumed = true;
@@ -709,9 +700,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             .apply(self.counters.ticks, q, &mut self.v_policy);
         // The operator's scale, then the singularity band (on the scaled command: its
         // look-ahead follows the motion actually asked for).
-        for v in self.v_policy.iter_mut() {
-            *v *= self.velocity_scale;
-        }
+        self.operator.scale(&mut self.v_policy);
         self.singular = if infeasible {
             SingularityReport {
                 status: SingularityStatus::Clear,
@@ -835,14 +824,14 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
 
     /// What runtime requests may ask for (fixed at start; for the callers' checks).
     pub fn runtime_bounds(&self) -> RuntimeBounds {
-        self.bounds
+        self.operator.bounds
     }
 
     /// The runtime settings in force.
     pub fn runtime(&self) -> RuntimeSettings {
         RuntimeSettings {
-            paused: self.paused,
-            velocity_scale: self.velocity_scale,
+            paused: self.operator.paused,
+            velocity_scale: self.operator.velocity_scale,
             stale_timeout_s: self.cfg.stale_timeout_s,
             accept_untrained: self.gate.domain.is_none(),
             margin: self.filter.settings().margin,
@@ -862,20 +851,19 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     /// and its restart count. `default_condition` goes through the input gate like a
     /// condition message and is in force from the next tick.
     pub fn apply(&mut self, r: OperatorRequest) -> Result<(), OperatorRefusal> {
-        self.bounds.check(&r)?;
+        self.operator.bounds.check(&r)?;
+        match self.operator.apply(&r) {
+            OperatorEffect::Done => {}
+            OperatorEffect::Restart => self.has_hold = false,
+            OperatorEffect::Elsewhere => self.apply_setting(r)?,
+        }
+        Ok(())
+    }
+
+    /// The requests that are not the operator state's: reset, the gate's and the filter's
+    /// settings, the default condition.
+    fn apply_setting(&mut self, r: OperatorRequest) -> Result<(), OperatorRefusal> {
         match r {
-            OperatorRequest::Pause(p) => {
-                if self.paused && !p {
-                    self.has_hold = false;
-                }
-                self.paused = p;
-            }
-            OperatorRequest::Activate(a) => {
-                if self.inactive && a {
-                    self.has_hold = false;
-                }
-                self.inactive = !a;
-            }
             OperatorRequest::Reset => {
                 self.held = Held::Clear;
                 self.halted = false;
@@ -883,12 +871,11 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
                 self.restart_times.fill(f64::NEG_INFINITY);
                 self.tracking_high_since = None;
             }
-            OperatorRequest::VelocityScale(s) => self.velocity_scale = s,
             OperatorRequest::StaleTimeout(t) => {
                 self.cfg.stale_timeout_s = t;
                 self.gate.set_stale_timeout(t);
                 self.filter
-                    .set_max_state_age(t, self.bounds.max_stale_timeout_s);
+                    .set_max_state_age(t, self.operator.bounds.max_stale_timeout_s);
             }
             OperatorRequest::AcceptUntrained(a) => {
                 self.cfg.accept_untrained_conditions = a;
@@ -910,6 +897,9 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
                     .map_err(|rejection| OperatorRefusal::Gate { rejection })?;
                 self.cfg.default_condition = c;
             }
+            OperatorRequest::Pause(_)
+            | OperatorRequest::Activate(_)
+            | OperatorRequest::VelocityScale(_) => {}
         }
         Ok(())
     }
@@ -952,8 +942,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             missed_ticks: self.timing.missed,
             tick_late_max_us: self.timing.late_max_us,
             condition: self.gate.inputs.condition,
-            paused: self.paused,
-            velocity_scale: self.velocity_scale,
+            paused: self.operator.paused,
+            velocity_scale: self.operator.velocity_scale,
             singularity_condition: self.singular.condition,
             singularity_factor: self.singular.factor,
             period_code,
@@ -962,7 +952,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             held_events: self.counters.held_events,
             locked_events: self.counters.locked_events,
             locked_joint: self.locked_joint,
-            command_subscribers: self.command_subscribers,
+            command_subscribers: self.link.subscribers(),
         }
     }
 
@@ -996,8 +986,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     /// brakes to a hold (`NO_COMMAND_SUBSCRIBER`) and starts again from the measured state
     /// when one matches again.
     pub fn set_command_subscribers(&mut self, n: u32) {
-        self.had_subscriber |= n > 0;
-        self.command_subscribers = Some(n);
+        self.link.set(n);
     }
 }
 

@@ -37,6 +37,7 @@ mod error;
 mod feasibility;
 mod fit;
 mod gate;
+mod link;
 mod motion;
 mod operator;
 mod period;

@@ -140,3 +140,179 @@ pub struct RuntimeSettings {
     /// `safety.margin`.
     pub margin: f64,
 }
+
+/// The operator's state in the node: paused, the lifecycle's inactive state, the velocity
+/// scale, and the bounds requests are checked against. Pause and inactive are orders not
+/// to run the policy (the core brakes); leaving either starts position modes again from
+/// the measured state, since the robot may have been moved meanwhile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct OperatorState {
+    /// Paused by an operator.
+    pub paused: bool,
+    /// Lifecycle state not active: braking, then no command.
+    pub inactive: bool,
+    /// The factor on the policy's velocity, in `(0, 1]`.
+    pub velocity_scale: f64,
+    /// What requests may ask for (fixed at start).
+    pub bounds: RuntimeBounds,
+}
+
+/// What applying a request to the [`OperatorState`] asks of the rest of the node.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum OperatorEffect {
+    /// Nothing more.
+    Done,
+    /// Start position modes again from the measured state (a resume, an activation).
+    Restart,
+    /// Not the operator state's own request (reset, the settings of the gate and the
+    /// filter, the default condition): the caller applies it.
+    Elsewhere,
+}
+
+impl OperatorState {
+    /// Running, active, at `velocity_scale`.
+    pub fn new(velocity_scale: f64, bounds: RuntimeBounds) -> Self {
+        Self {
+            paused: false,
+            inactive: false,
+            velocity_scale,
+            bounds,
+        }
+    }
+
+    /// Applies `r` if it is a pause, an activation or a velocity scale (`r` already
+    /// checked against the bounds). Allocation-free.
+    pub fn apply(&mut self, r: &OperatorRequest) -> OperatorEffect {
+        match *r {
+            OperatorRequest::Pause(p) => {
+                let resumed = self.paused && !p;
+                self.paused = p;
+                effect(resumed)
+            }
+            OperatorRequest::Activate(a) => {
+                let activated = self.inactive && a;
+                self.inactive = !a;
+                effect(activated)
+            }
+            OperatorRequest::VelocityScale(s) => {
+                self.velocity_scale = s;
+                OperatorEffect::Done
+            }
+            _ => OperatorEffect::Elsewhere,
+        }
+    }
+
+    /// Multiplies the policy's velocity by the scale. Allocation-free.
+    pub fn scale(&self, v: &mut [f64]) {
+        for x in v.iter_mut() {
+            *x *= self.velocity_scale;
+        }
+    }
+}
+
+fn effect(restart: bool) -> OperatorEffect {
+    if restart {
+        OperatorEffect::Restart
+    } else {
+        OperatorEffect::Done
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn state() -> OperatorState {
+        OperatorState::new(
+            1.0,
+            RuntimeBounds {
+                max_stale_timeout_s: 0.5,
+                max_margin: 1.0,
+            },
+        )
+    }
+
+    #[test]
+    fn leaving_a_pause_restarts_and_pausing_twice_does_not() {
+        let mut s = state();
+        assert_eq!(
+            s.apply(&OperatorRequest::Pause(false)),
+            OperatorEffect::Done
+        );
+        assert_eq!(s.apply(&OperatorRequest::Pause(true)), OperatorEffect::Done);
+        assert!(s.paused);
+        assert_eq!(s.apply(&OperatorRequest::Pause(true)), OperatorEffect::Done);
+        assert_eq!(
+            s.apply(&OperatorRequest::Pause(false)),
+            OperatorEffect::Restart
+        );
+        assert!(!s.paused);
+        assert_eq!(
+            s.apply(&OperatorRequest::Pause(false)),
+            OperatorEffect::Done
+        );
+    }
+
+    #[test]
+    fn an_activation_after_inactive_restarts_and_one_while_active_does_not() {
+        let mut s = state();
+        assert_eq!(
+            s.apply(&OperatorRequest::Activate(true)),
+            OperatorEffect::Done
+        );
+        assert_eq!(
+            s.apply(&OperatorRequest::Activate(false)),
+            OperatorEffect::Done
+        );
+        assert!(s.inactive);
+        assert_eq!(
+            s.apply(&OperatorRequest::Activate(true)),
+            OperatorEffect::Restart
+        );
+        assert!(!s.inactive);
+        // Pause and lifecycle are independent.
+        s.apply(&OperatorRequest::Pause(true));
+        assert_eq!(
+            s.apply(&OperatorRequest::Activate(false)),
+            OperatorEffect::Done
+        );
+        assert!(s.paused && s.inactive);
+    }
+
+    #[test]
+    fn the_scale_multiplies_the_velocity_and_other_requests_are_not_its_own() {
+        let mut s = state();
+        assert_eq!(
+            s.apply(&OperatorRequest::VelocityScale(0.25)),
+            OperatorEffect::Done
+        );
+        let mut v = [2.0, -4.0, f64::NAN];
+        s.scale(&mut v);
+        assert_eq!(&v[..2], &[0.5, -1.0]);
+        assert!(
+            v[2].is_nan(),
+            "a non-finite velocity stays for the filter to replace"
+        );
+        let before = s;
+        for r in [
+            OperatorRequest::Reset,
+            OperatorRequest::StaleTimeout(0.1),
+            OperatorRequest::AcceptUntrained(true),
+            OperatorRequest::Margin(0.1),
+        ] {
+            assert_eq!(s.apply(&r), OperatorEffect::Elsewhere, "{r:?}");
+        }
+        assert_eq!(s, before);
+    }
+
+    #[test]
+    fn requests_outside_the_bounds_are_refused() {
+        let b = state().bounds;
+        assert!(b.check(&OperatorRequest::VelocityScale(0.0)).is_err());
+        assert!(b.check(&OperatorRequest::VelocityScale(1.5)).is_err());
+        assert!(b.check(&OperatorRequest::VelocityScale(1.0)).is_ok());
+        assert!(b.check(&OperatorRequest::StaleTimeout(0.6)).is_err());
+        assert!(b.check(&OperatorRequest::Margin(1.0)).is_err());
+        assert!(b.check(&OperatorRequest::Margin(0.0)).is_ok());
+    }
+}
