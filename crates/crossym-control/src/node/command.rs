@@ -2,6 +2,7 @@
 //! the inputs that produced it.
 
 use crossym_io::msg;
+use crossym_math::kinematics::JointLimits;
 
 use super::config::OutputMode;
 
@@ -69,4 +70,16 @@ impl Command {
             points,
         }
     }
+}
+
+/// Clamps `x` into `[lower, upper]` (infinite limits bound nothing; NaN stays NaN).
+pub(crate) fn clamp_to(l: &JointLimits, x: f64) -> f64 {
+    let mut y = x;
+    if y > l.upper {
+        y = l.upper;
+    }
+    if y < l.lower {
+        y = l.lower;
+    }
+    y
 }

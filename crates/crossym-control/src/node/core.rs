@@ -1,13 +1,25 @@
-//! [`NodeCore`]: the control tick `π(q, s)` → safety filter → command, stale-input stop,
-//! tracking of position commands, status; allocation-free after construction.
+//! [`NodeCore`]: the control tick, a pipeline of parts — the input gate, the policy, the
+//! operator's scale and the singularity band, the safety filter, the robot-follows
+//! supervisor, the command — and the status; allocation-free after construction.
+//!
+//! The core owns the order and nothing else: what each stage decides is its part's
+//! ([`InputGate`], [`OperatorState`], [`SingularityBand`], [`SafetyFilter`],
+//! [`Supervisor`], [`ControllerLink`], [`Counters`], [`StatusPeriod`], [`TickTiming`]). A
+//! tick first asks whether the policy may run at all (inactive, the controller lost, no
+//! fresh joint state, paused: brake), then the supervisor (the not-following latch, a held
+//! robot's dwell, and in position modes whether the commands go on, restart from the
+//! measured state or brake), then runs the policy, scales it, filters it and composes the
+//! command; the supervisor keeps the command as the next anchor. The tick's code is the
+//! most important of what happened ([`tick_code`]).
 
 use crossym_io::msg;
 use crossym_math::kinematics::{JointLimits, Kinematics, KinematicsWorkspace};
 use crossym_math::symmetry::compose::Condition;
 use crossym_policy::{AnyPolicy, AnyWorkspace};
 
+use super::barrier::EeBarrier;
 use super::code::StatusCode;
-use super::command::Command;
+use super::command::{clamp_to, Command};
 use super::config::validate_tracking;
 use super::config::NodeConfig;
 use super::config::OutputMode;
@@ -18,7 +30,6 @@ use super::fit::{checked_domain, checked_policy};
 use super::gate::InputGate;
 use super::gate::Inputs;
 use super::link::ControllerLink;
-use super::motion::{Motion, MotionSupervisor};
 use super::operator::{
     OperatorEffect, OperatorRefusal, OperatorRequest, OperatorState, RuntimeBounds, RuntimeSettings,
 };
@@ -28,11 +39,10 @@ use super::singularity::{SingularityBand, SingularityReport, SingularityStatus};
 use super::stage::{OutputStage, PolicyOutput};
 use super::status::StatusSnapshot;
 use super::status::TickReport;
+use super::supervisor::{FollowSettings, Supervisor, Verdict};
 use super::timing::TickTiming;
-use crate::safety::history::{CommandHistory, CommandWindow};
 use crate::safety::{
-    Anchor, Barrier, BoundRules, ExactBounds, SafetyFilter, SafetyReport, SafetySettings,
-    SafetyStatus,
+    Anchor, BoundRules, ExactBounds, SafetyFilter, SafetyReport, SafetySettings, SafetyStatus,
 };
 
 /// The node's logic: latest inputs, the control tick, the status. See the module docs.
@@ -47,70 +57,36 @@ pub struct NodeCore<O: OutputStage = PolicyOutput, R: BoundRules = ExactBounds> 
     kws: KinematicsWorkspace,
     policy: AnyPolicy,
     pws: AnyWorkspace,
-    filter: SafetyFilter<R>,
-    limits: Vec<JointLimits>,
-    n: usize,
     gate: InputGate,
+    output: O,
+    filter: SafetyFilter<R>,
     // End-effector distance barrier (two chains, same task dimension), if configured.
-    min_ee_distance: Option<f64>,
-    barrier_grad: Vec<f64>,
+    barrier: EeBarrier,
+    // The policy's velocity (scaled, banded), and the filter's.
     v_policy: Vec<f64>,
     v_safe: Vec<f64>,
-    // Last commanded position (position / trajectory modes: the anchor of the next command).
-    q_hold: Vec<f64>,
-    has_hold: bool,
-    // The last command's velocities (the start of the next trajectory segment).
-    v_last: Vec<f64>,
-    // Commanded positions with their times, and the hull of those the robot may follow.
-    pos_history: CommandHistory,
-    pos_window: CommandWindow,
-    unbounded: Vec<f64>,
-    zeros: Vec<f64>,
-    output: O,
-    // Position modes: times of the last `max_restarts + 1` restarts (ring), the hold after
-    // the robot was found not following, and the tracking error's watch.
-    restart_times: Vec<f64>,
-    restart_head: usize,
-    // The joint state the last tick saw (jump detection).
-    prev_meas_q: Vec<f64>,
-    prev_meas_time_s: f64,
-    prev_meas_seq: u64,
-    cmd_speed: Vec<f64>,
-    halted: bool,
-    halted_condition_seq: u64,
-    tracking_high_since: Option<f64>,
-    tracking_error: f64,
-    // Position modes: held-robot and locked-joint detection, and the node's reaction.
-    motion: MotionSupervisor,
-    held: Held,
-    locked_joint: Option<usize>,
-    // Subscribers matched on the command topic (`None`: not known), whether one ever
-    // matched, and whether the next fresh tick restarts from the measured state (a
-    // controller switched back on).
-    link: ControllerLink,
-    motion_seq: u64,
-    // Operator controls: the singularity band, pause, the velocity scale, what may change.
-    band: SingularityBand,
-    singular: SingularityReport,
+    // Position modes: the hold, restarts, the not-following latch, held and locked.
+    sup: Supervisor,
+    // Pause, lifecycle, velocity scale, what requests may ask for.
     operator: OperatorState,
-    // Status: the running totals, the last tick's code.
+    // The command topic's subscribers (the controller switched off and back).
+    link: ControllerLink,
+    band: SingularityBand,
+    // Status: the totals, the last tick's outcome, the tick's timing, the status period.
     counters: Counters,
-    code: StatusCode,
-    active: u32,
-    age_s: f64,
+    last: LastTick,
     timing: TickTiming,
     period: StatusPeriod,
 }
 
-/// A held robot's handling (position modes).
+/// What the status reports of the last tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Held {
-    /// Not held.
-    Clear,
-    /// Found held: holding at the measured state until the time (s).
-    Dwell(f64),
-    /// Trying the policy again; reported held until a joint moves.
-    Probe,
+struct LastTick {
+    code: StatusCode,
+    /// Joints on a bound.
+    active: u32,
+    /// The joint state's age (s; −1 before any).
+    age_s: f64,
 }
 
 impl NodeCore {
@@ -150,9 +126,8 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         cfg.validate()?;
         let policy = checked_policy(policy.into(), &kin, &safety)?;
         let n = kin.dof();
-        let limits = kin.limits().to_vec();
         let filter = SafetyFilter::with_rules(
-            &limits,
+            kin.limits(),
             SafetySettings {
                 dt: cfg.period_s,
                 max_state_age_s: cfg.stale_timeout_s,
@@ -160,87 +135,38 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             },
             rules,
         )?;
-        let fs = filter.settings();
-        let motion_delay = fs.latency() + fs.state_delay_s;
         validate_tracking(&safety)?;
-        let pos_capacity = ((cfg.stale_timeout_s
-            + fs.state_delay_s
-            + 2.0 * fs.latency()
-            + safety.tracking_window_s)
-            / cfg.period_s)
-            .ceil()
-            .min(1e5) as usize
-            + 4;
-        let kws = kin.workspace();
-        let pws = policy.workspace();
-        let domain = checked_domain(&cfg, &policy)?;
-        // The trained box, for `accept_untrained_conditions` switched off at runtime.
-        let trained = NodeConfig {
-            accept_untrained_conditions: false,
-            ..cfg.clone()
-        }
-        .condition_domain(&policy)
-        .ok()
-        .flatten();
-        let gate = InputGate::new(kin.joint_names(), &cfg)
-            .with_domain(domain)
-            .with_trained_domain(trained)
-            .with_feasibility(feasibility(&policy, &limits));
+        let sup = supervisor(&cfg, filter.settings(), n);
+        let gate = input_gate(&cfg, &kin, &policy)?;
         let bounds = RuntimeBounds {
             max_stale_timeout_s: cfg.stale_timeout_s,
-            max_margin: limits
+            max_margin: kin
+                .limits()
                 .iter()
                 .map(|l| 0.5 * (l.upper - l.lower))
                 .filter(|h| h.is_finite())
                 .fold(f64::INFINITY, f64::min),
         };
-        let band = SingularityBand::new(cfg.singularity, &kin);
         Ok(Self {
-            kws,
-            pws,
+            kws: kin.workspace(),
+            pws: policy.workspace(),
             policy,
-            filter,
-            limits,
-            n,
             gate,
-            min_ee_distance: safety.min_ee_distance,
-            barrier_grad: vec![0.0; n],
+            output,
+            filter,
+            barrier: EeBarrier::new(safety.min_ee_distance, n),
             v_policy: vec![0.0; n],
             v_safe: vec![0.0; n],
-            q_hold: vec![0.0; n],
-            has_hold: false,
-            v_last: vec![0.0; n],
-            pos_history: CommandHistory::new(n, pos_capacity),
-            pos_window: CommandWindow::new(n),
-            unbounded: vec![f64::INFINITY; n],
-            zeros: vec![0.0; n],
-            output,
-            restart_times: vec![f64::NEG_INFINITY; safety.max_restarts as usize + 1],
-            restart_head: 0,
-            prev_meas_q: vec![0.0; n],
-            prev_meas_time_s: f64::NEG_INFINITY,
-            prev_meas_seq: 0,
-            cmd_speed: vec![0.0; n],
-            halted: false,
-            halted_condition_seq: 0,
-            tracking_high_since: None,
-            tracking_error: 0.0,
-            motion: MotionSupervisor::new(n, cfg.motion, motion_delay),
-            held: Held::Clear,
-            locked_joint: None,
-            link: ControllerLink::default(),
-            motion_seq: 0,
-            band,
-            singular: SingularityReport {
-                status: SingularityStatus::Clear,
-                factor: 1.0,
-                condition: f64::NAN,
-            },
+            sup,
             operator: OperatorState::new(cfg.velocity_scale, bounds),
+            link: ControllerLink::default(),
+            band: SingularityBand::new(cfg.singularity, &kin),
             counters: Counters::default(),
-            code: StatusCode::StaleJointStates,
-            active: 0,
-            age_s: -1.0,
+            last: LastTick {
+                code: StatusCode::StaleJointStates,
+                active: 0,
+                age_s: -1.0,
+            },
             timing: TickTiming::new(cfg.period_s),
             period: StatusPeriod::new(),
             cfg,
@@ -271,7 +197,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
 
     /// Controlled joint limits (rad, rad/s, rad/s²).
     pub fn limits(&self) -> &[JointLimits] {
-        &self.limits
+        self.kin.limits()
     }
 
     /// The condition currently applied.
@@ -289,10 +215,10 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     pub fn command(&self) -> Command {
         Command {
             mode: self.cfg.output,
-            velocities: vec![0.0; self.n],
-            positions: vec![0.0; self.n],
-            start_positions: vec![0.0; self.n],
-            start_velocities: vec![0.0; self.n],
+            velocities: vec![0.0; self.n()],
+            positions: vec![0.0; self.n()],
+            start_positions: vec![0.0; self.n()],
+            start_velocities: vec![0.0; self.n()],
         }
     }
 
@@ -301,7 +227,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     pub fn input_gate(&self) -> InputGate {
         InputGate::new(self.kin.joint_names(), &self.cfg)
             .with_domain(self.gate.domain)
-            .with_feasibility(feasibility(&self.policy, &self.limits))
+            .with_feasibility(feasibility(&self.policy, self.kin.limits()))
     }
 
     /// The policy (plain or canonicalised).
@@ -329,356 +255,159 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         self.gate.on_condition(m)
     }
 
+    fn n(&self) -> usize {
+        self.kin.dof()
+    }
+
     fn is_position(&self) -> bool {
         self.cfg.output != OutputMode::Velocity
-    }
-
-    /// Brakes toward zero velocity at the acceleration limits (no usable state) into `out`;
-    /// in position modes the braking velocities move the last commanded position. False when
-    /// there is nothing to command (position modes before any joint state).
-    fn brake(&mut self, now_s: f64, out: &mut Command) -> bool {
-        out.mode = self.cfg.output;
-        if self.is_position() && !self.has_hold {
-            out.velocities.fill(0.0);
-            out.positions.copy_from_slice(&self.q_hold);
-            return false;
-        }
-        out.start_positions.copy_from_slice(&self.q_hold);
-        out.start_velocities.copy_from_slice(&self.v_last);
-        self.filter.brake(now_s, &mut out.velocities);
-        let dt = self.cfg.period_s;
-        let i = &self.gate.inputs;
-        for j in 0..self.n {
-            let from = if self.is_position() || i.state_time_s.is_none() {
-                self.q_hold[j]
-            } else {
-                i.q[j]
-            };
-            out.positions[j] = clamp_to(&self.limits[j], from + out.velocities[j] * dt);
-        }
-        if self.is_position() {
-            self.q_hold.copy_from_slice(&out.positions);
-            self.pos_history.push(now_s, &out.positions);
-        }
-        self.v_last.copy_from_slice(&out.velocities);
-        true
-    }
-
-    /// True when the measured `q` lies within `tracking_tolerance` of the hull of the
-    /// positions the robot may be following (position modes): the commands from
-    /// `tracking_window_s` before the measurement until now; false after a teleport or when
-    /// the robot does not follow. Also sets the tracking error (the measured state against
-    /// the command in effect when it was measured).
-    fn tracks_commands(&mut self) -> bool {
-        let i = &self.gate.inputs;
-        let fs = self.filter.settings();
-        let s = i.measured_time_s - fs.state_delay_s;
-        let t = i.state_time_s.unwrap_or(s);
-        let window = self.cfg.safety.tracking_window_s;
-        self.pos_history.window(
-            s.min(t) - window,
-            t,
-            fs.latency(),
-            &self.unbounded,
-            &mut self.pos_window,
-        );
-        self.tracking_error = match self.pos_history.at(s) {
-            Some(c) => (0..self.n).fold(0.0, |e: f64, j| e.max((i.q[j] - c[j]).abs())),
-            None => 0.0,
-        };
-        let tol = self.cfg.safety.tracking_tolerance;
-        (0..self.n).all(|j| {
-            i.q[j] >= self.pos_window.past_min[j] - tol
-                && i.q[j] <= self.pos_window.past_max[j] + tol
-        })
-    }
-
-    /// Position modes, before the policy runs: a held robot or a locked joint
-    /// ([`MotionSupervisor`]), whether the robot follows the commands (the hull test, and
-    /// with a lag window no jump), else a restart from the measured state at rest, counted;
-    /// `Err` with the braking tick once the restarts say the robot does not follow, or when
-    /// the robot was found held. `Ok((restart, lagging))`: the restart's code, if any, and
-    /// whether the tracking warning holds.
-    fn follow(
-        &mut self,
-        now_s: f64,
-        out: &mut Command,
-    ) -> Result<(Option<StatusCode>, bool), TickReport> {
-        let motion = self.watch_motion();
-        if let Motion::Held { .. } = motion {
-            // Hold where the robot is (no command away from it while it cannot move), then
-            // try again: a release finds the commands on the measured state.
-            bump(&mut self.counters.held_events);
-            self.restart_at_rest(now_s);
-            self.held = Held::Dwell(now_s + self.cfg.motion.held_dwell_s);
-            return Err(self.braking(now_s, out, StatusCode::RobotHeld));
-        }
-        let locked = if let Motion::Locked { joint } = motion {
-            bump(&mut self.counters.locked_events);
-            self.locked_joint = Some(joint);
-            true
-        } else {
-            false
-        };
-        // With a lag window, a measured jump (a reset, a robot moved by something else)
-        // restarts even when it lands inside the envelope of the window's commands.
-        // Without one the envelope is the commands since the measurement: a jump
-        // leaves it anyway.
-        let jumped = self.cfg.safety.tracking_window_s > 0.0 && self.measured_jump();
-        let tracks = !self.has_hold || (!locked && !jumped && self.tracks_commands());
-        if !tracks && self.count_restart(now_s) {
-            // Repeated restarts: the robot does not follow. Hold where the commands are.
-            self.halted = true;
-            self.halted_condition_seq = self.gate.inputs.condition_seq;
-            bump(&mut self.counters.not_following_ticks);
-            self.tracking_high_since = None;
-            return Err(self.braking(now_s, out, StatusCode::RobotNotFollowing));
-        }
-        let mut restart = None;
-        if !self.has_hold || !tracks {
-            if self.has_hold {
-                restart = Some(if locked {
-                    StatusCode::JointLocked
-                } else {
-                    StatusCode::RestartedFromMeasured
-                });
-            }
-            self.restart_at_rest(now_s);
-        }
-        let lagging = self.watch_tracking(now_s);
-        Ok((restart, lagging))
-    }
-
-    /// The motion supervisor on a new joint state (position modes, while commands are
-    /// continued): held, locked or nothing.
-    fn watch_motion(&mut self) -> Motion {
-        let i = &self.gate.inputs;
-        if !self.has_hold || i.joint_state_seq == self.motion_seq {
-            return Motion::Normal;
-        }
-        self.motion_seq = i.joint_state_seq;
-        let t = i.state_time_s.unwrap_or(i.measured_time_s);
-        let m = self.motion.measure(t, &i.q);
-        if self.held == Held::Probe {
-            if self.motion.moved() {
-                self.held = Held::Clear;
-            } else if let Some(joint) = (0..self.n)
-                .find(|&j| (self.q_hold[j] - i.q[j]).abs() > self.cfg.safety.tracking_tolerance)
-            {
-                // Tried again and still held: no farther than the tracking tolerance from
-                // the robot (a release then finds the command close to its state).
-                return Motion::Held { joint };
-            }
-        }
-        m
-    }
-
-    /// The commands restart from the measured state at rest (position modes).
-    fn restart_at_rest(&mut self, now_s: f64) {
-        for j in 0..self.n {
-            self.q_hold[j] = clamp_to(&self.limits[j], self.gate.inputs.q[j]);
-        }
-        self.filter.reset(&self.zeros);
-        if self.has_hold {
-            // Commands still in flight may yet move the robot: keep them in the hull.
-            self.pos_history.push(now_s, &self.q_hold);
-        } else {
-            self.pos_history.reset_to(&self.q_hold);
-        }
-        self.has_hold = true;
-        self.tracking_high_since = None;
-        self.tracking_error = 0.0;
-        self.v_last.fill(0.0);
-        self.motion.reset();
-    }
-
-    /// The command of the filtered velocity `v`: `v`, and `q + v·Δt` clamped into the
-    /// position limits from the last commanded (position modes) or the measured `q`; false
-    /// when a value is not finite.
-    fn compose(&self, position: bool, out: &mut Command) -> bool {
-        out.mode = self.cfg.output;
-        out.start_positions.copy_from_slice(&self.q_hold);
-        out.start_velocities.copy_from_slice(&self.v_last);
-        let dt = self.cfg.period_s;
-        let q = &self.gate.inputs.q;
-        let mut finite = true;
-        for j in 0..self.n {
-            let v = self.v_safe[j];
-            let from = if position { self.q_hold[j] } else { q[j] };
-            let p = clamp_to(&self.limits[j], from + v * dt);
-            finite &= v.is_finite() && p.is_finite();
-            out.velocities[j] = v;
-            out.positions[j] = p;
-        }
-        finite
-    }
-
-    /// A braking tick ([`Self::brake`]) reported as `code`.
-    fn braking(&mut self, now_s: f64, out: &mut Command, code: StatusCode) -> TickReport {
-        let publish = self.brake(now_s, out);
-        self.code = code;
-        self.active = 0;
-        TickReport {
-            code,
-            publish,
-            safety: Some(SafetyStatus::Braking),
-            active_constraints: 0,
-        }
-    }
-
-    /// Whether the measured state jumped since the previous joint state this tick saw. A
-    /// servo that does not overshoot moves no faster than its commands did over the tracking
-    /// window (its velocity is a positive average of theirs), so a joint that moved farther
-    /// than 1.5 × that speed × (the time between the two measurements + one period + the
-    /// latency `L`), plus
-    /// half the tracking tolerance (noise, sag), was moved by something else: a reset,
-    /// another controller, a glitch. Remembers the measurement for the next call.
-    fn measured_jump(&mut self) -> bool {
-        let i = &self.gate.inputs;
-        if i.joint_state_seq == self.prev_meas_seq {
-            return false;
-        }
-        let dt = i.measured_time_s - self.prev_meas_time_s;
-        let slack = 0.5 * self.cfg.safety.tracking_tolerance;
-        let since = i.measured_time_s
-            - self.filter.settings().state_delay_s
-            - self.filter.settings().latency()
-            - self.cfg.safety.tracking_window_s
-            - dt.max(0.0);
-        // After a gap longer than the history (a silent robot) the commands' speed is not
-        // known: no evidence of a jump; the hull test still applies.
-        let known = self.pos_history.max_speed(since, &mut self.cmd_speed);
-        // A robot that takes each position command at once moves a whole period's step
-        // between two measurements however close they are, and commands held up by the
-        // latency envelope arrive together: one period and the latency more.
-        let reach = dt + self.cfg.period_s + self.filter.settings().latency();
-        let jumped = self.prev_meas_seq != 0
-            && known
-            && dt >= 0.0
-            && (0..self.n).any(|j| {
-                (i.q[j] - self.prev_meas_q[j]).abs() > 1.5 * self.cmd_speed[j] * reach + slack
-            });
-        self.prev_meas_q.copy_from_slice(&i.q);
-        self.prev_meas_time_s = i.measured_time_s;
-        self.prev_meas_seq = i.joint_state_seq;
-        jumped
-    }
-
-    /// Records a restart at `now_s`; true when it makes more than `max_restarts` within
-    /// `restart_window_s` (the robot does not follow).
-    fn count_restart(&mut self, now_s: f64) -> bool {
-        bump(&mut self.counters.restarts);
-        let k = self.restart_times.len();
-        self.restart_head = (self.restart_head + 1) % k;
-        self.restart_times[self.restart_head] = now_s;
-        // The oldest of the last `max_restarts + 1` restarts.
-        let oldest = self.restart_times[(self.restart_head + 1) % k];
-        now_s - oldest <= self.cfg.safety.restart_window_s
     }
 
     /// One control tick at time `now_s` (s) into `out`; allocation-free. See the module docs.
     pub fn tick(&mut self, now_s: f64, out: &mut Command) -> TickReport {
         let report = self.tick_inner(now_s, out);
         if self.is_position() {
-            self.motion.command(now_s, &self.v_last);
+            self.sup.after_tick(now_s);
         }
         self.period.observe(report.code);
         report
     }
 
+    /// The pipeline: gate → supervisor → policy → scale and band → filter → command.
     fn tick_inner(&mut self, now_s: f64, out: &mut Command) -> TickReport {
         bump(&mut self.counters.ticks);
-        let fresh = match self.gate.inputs.state_time_s {
+        // Whether the policy may run at all: an inactive node, the controller lost, no
+        // fresh joint state, a pause brake.
+        if let Some(code) = self.stop(now_s) {
+            // An inactive node publishes the braking commands up to the first zero one,
+            // then nothing (the robot's controller holds the last command).
+            let moving = self.sup.v_last().iter().any(|v| *v != 0.0);
+            let mut report = self.braking(now_s, out, code);
+            report.publish &= code != StatusCode::Inactive || moving;
+            return report;
+        }
+        // The supervisor: the not-following latch, a held robot's dwell; in position
+        // modes whether the commands go on, restart from the measured state, or brake.
+        let (restart, lagging) = match self.supervise(now_s) {
+            Ok(flags) => flags,
+            Err(code) => return self.braking(now_s, out, code),
+        };
+        let held = self.sup.probing();
+        // The policy, then the operator's scale and the singularity band (on the scaled
+        // command: its look-ahead follows the motion actually asked for).
+        let infeasible = self.run_policy();
+        self.shape(infeasible);
+        // The safety filter, then the command.
+        let report = self.run_filter(now_s);
+        if !self.compose(out) {
+            // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
+            let publish = self.brake(now_s, out);
+            self.last.code = StatusCode::SafetyFallback;
+            bump(&mut self.counters.fallback_ticks);
+            self.last.active = 0;
+            return TickReport {
+                code: self.last.code,
+                publish,
+                safety: Some(report.status),
+                active_constraints: 0,
+            };
+        }
+        self.sup.commanded(now_s, self.is_position(), out);
+        self.count_filtered(&report, infeasible);
+        let rejected = self.gate.inputs.joint_state_rejected || self.gate.inputs.condition_rejected;
+        let singular = self.band.last().status;
+        self.last.code = tick_code(
+            rejected, &report, infeasible, restart, held, lagging, singular,
+        );
+        TickReport {
+            code: self.last.code,
+            publish: true,
+            safety: Some(report.status),
+            active_constraints: report.active,
+        }
+    }
+
+    /// Whether the joint state is fresh at `now_s` (its receipt and its measurement within
+    /// the stale timeout: a republished old state is not fresh); sets its age.
+    fn fresh(&mut self, now_s: f64) -> bool {
+        let i = &self.gate.inputs;
+        match i.state_time_s {
             Some(t) => {
-                self.age_s = now_s - t;
-                // The data's own age counts too (a republished old state is not fresh).
-                let data_age = now_s - self.gate.inputs.measured_time_s;
-                self.age_s <= self.cfg.stale_timeout_s && data_age <= self.cfg.stale_timeout_s
+                self.last.age_s = now_s - t;
+                let data_age = now_s - i.measured_time_s;
+                self.last.age_s <= self.cfg.stale_timeout_s && data_age <= self.cfg.stale_timeout_s
             }
             None => {
-                self.age_s = -1.0;
+                self.last.age_s = -1.0;
                 false
             }
-        };
+        }
+    }
+
+    /// The gate's refusals to run the policy, by priority: an inactive node, the
+    /// controller switched off (the command topic lost its subscribers; reported as stale
+    /// when the joint states are stale too: without a measured state that is the graver
+    /// fault), no fresh joint state, a pause. `None`: run it.
+    fn stop(&mut self, now_s: f64) -> Option<StatusCode> {
+        let fresh = self.fresh(now_s);
         if !fresh {
             bump(&mut self.counters.stale_ticks);
         }
         if self.operator.inactive {
-            // Publishes the braking commands up to the first zero one (a deactivation),
-            // then nothing: an inactive node commands nothing (the robot's controller
-            // holds the last command).
-            let moving = self.v_last.iter().any(|v| *v != 0.0);
-            let mut report = self.braking(now_s, out, StatusCode::Inactive);
-            report.publish &= moving;
-            return report;
+            return Some(StatusCode::Inactive);
         }
-        // The controller switched off (the command topic lost its subscribers): hold, and
-        // start again from the measured state when one matches again. A driver that went
-        // away altogether (its joint states stale too) is reported as stale: without a
-        // measured state that is the graver fault.
         if self.link.lost() {
-            let code = if fresh {
+            return Some(if fresh {
                 StatusCode::NoCommandSubscriber
             } else {
                 StatusCode::StaleJointStates
-            };
-            return self.braking(now_s, out, code);
+            });
         }
         if !fresh {
-            return self.braking(now_s, out, StatusCode::StaleJointStates);
+            return Some(StatusCode::StaleJointStates);
         }
-        // Joint states back after a silence (a driver restarting): the hull test below
-        // restarts from the measured state when the robot is not where the braking
-        // commands left it (moved by hand); else the commands go on from there.
         if self.operator.paused {
             bump(&mut self.counters.paused_ticks);
-            return self.braking(now_s, out, StatusCode::Paused);
+            return Some(StatusCode::Paused);
         }
-        // Position modes: a robot found not following stays held (braking, then holding the
-        // last command) until a new condition is accepted.
-        if self.halted {
-            if self.gate.inputs.condition_seq == self.halted_condition_seq {
-                bump(&mut self.counters.not_following_ticks);
-                return self.braking(now_s, out, StatusCode::RobotNotFollowing);
-            }
-            // A new condition: start again from the measured state, with a clean count.
-            self.halted = false;
-            self.has_hold = false;
-            self.restart_times.fill(f64::NEG_INFINITY);
+        None
+    }
+
+    /// The supervisor before the policy: `Ok((restart, lagging))` — the code of a restart
+    /// from the measured state, if any, and the tracking warning — or `Err(code)`: brake.
+    /// A restart at rest also restarts the filter's command history at rest.
+    fn supervise(&mut self, now_s: f64) -> Result<(Option<StatusCode>, bool), StatusCode> {
+        let condition_seq = self.gate.inputs.condition_seq;
+        if let Some(code) = self.sup.admit(now_s, condition_seq, &mut self.counters) {
+            return Err(code);
         }
-        // A held robot is held at its measured state for a while, then tried again.
-        if let Held::Dwell(until) = self.held {
-            if now_s < until {
-                return self.braking(now_s, out, StatusCode::RobotHeld);
-            }
-            self.held = Held::Probe;
-            self.has_hold = false;
+        let resume = self.link.take_resume();
+        if !self.is_position() {
+            return Ok((None, false));
         }
-        let mut resumed = false;
-        if self.link.take_resume() && self.is_position() && self.has_hold {
-            self.has_hold = false;
-            bump(&mut self.counters.restarts);
-            resumed = true;
+        let (verdict, at_rest) = self.sup.follow(
+            now_s,
+            &self.gate.inputs,
+            self.kin.limits(),
+            resume,
+            &mut self.counters,
+        );
+        if at_rest {
+            self.filter.reset(self.sup.zeros());
         }
-        // Position modes: the next command continues the last commanded position, unless
-        // there is none yet or the robot is not where the commands put it.
-        let (mut restart, lagging) = if self.is_position() {
-            match self.follow(now_s, out) {
-                Ok(flags) => flags,
-                Err(report) => return report,
-            }
-        } else {
-            (None, false)
-        };
-        if resumed {
-            restart = Some(StatusCode::RestartedFromMeasured);
+        match verdict {
+            Verdict::Go { restart, lagging } => Ok((restart, lagging)),
+            Verdict::Brake(code) => Err(code),
         }
-        let held = self.held == Held::Probe;
+    }
+
+    /// FK and Jacobian once (the safety filter reads the Jacobian, the policy's task
+    /// features the point `f(q)`: the same FK as the policy's stored chains, checked at
+    /// setup), then `π(q, s)`; true when the accepted condition's flows fail from here (no
+    /// policy velocity: NaN, which the filter replaces by 0 and brakes within the limits).
+    fn run_policy(&mut self) -> bool {
         let inputs = &self.gate.inputs;
         let q = inputs.q.as_slice();
-        // FK and Jacobian once: the safety filter reads the Jacobian, the policy's task
-        // features the point `f(q)` (the same FK as the policy's stored chains, checked at
-        // setup).
         self.kin.jacobian(q, &mut self.kws);
         let infeasible = self
             .policy
@@ -691,135 +420,146 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
             )
             .is_err();
         if infeasible {
-            // The accepted condition's flows fail from here: no policy velocity (the filter
-            // replaces the non-finite output by 0 and brakes within the limits).
             self.v_policy.fill(f64::NAN);
             bump(&mut self.counters.infeasible_ticks);
         }
+        infeasible
+    }
+
+    /// The output stage, the operator's scale, the singularity band.
+    fn shape(&mut self, infeasible: bool) {
+        let q = self.gate.inputs.q.as_slice();
         self.output
             .apply(self.counters.ticks, q, &mut self.v_policy);
-        // The operator's scale, then the singularity band (on the scaled command: its
-        // look-ahead follows the motion actually asked for).
         self.operator.scale(&mut self.v_policy);
-        self.singular = if infeasible {
-            SingularityReport {
-                status: SingularityStatus::Clear,
-                factor: 1.0,
-                condition: f64::INFINITY,
-            }
-        } else {
-            self.band.apply(
-                &self.kin,
-                &self.kws,
-                q,
-                &mut self.v_policy,
-                self.cfg.period_s,
-            )
-        };
+        let dt = self.cfg.period_s;
+        self.band
+            .tick(&self.kin, &self.kws, q, &mut self.v_policy, dt, infeasible);
+    }
+
+    /// The safety filter on the shaped velocity, anchored at the last commanded position
+    /// (position modes) or the measured state, with the Jacobian and the barrier when the
+    /// Jacobian is finite.
+    fn run_filter(&mut self, now_s: f64) -> SafetyReport {
+        let position = self.is_position();
+        let inputs = &self.gate.inputs;
         let jac_ok = self.kws.jac.iter().all(|x| x.is_finite());
-        let barrier = match self.min_ee_distance {
-            Some(d_min) if jac_ok => {
-                ee_barrier(&self.kin, &self.kws, d_min, &mut self.barrier_grad)
-            }
-            _ => None,
-        };
+        let barrier = self.barrier.at(&self.kin, &self.kws, jac_ok);
         let jac = if jac_ok { Some(&self.kws.jac) } else { None };
-        let position = self.cfg.output != OutputMode::Velocity;
         let anchor = if position {
-            Anchor::Commanded { q: &self.q_hold }
+            Anchor::Commanded {
+                q: self.sup.q_hold(),
+            }
         } else {
             Anchor::Measured {
-                q,
+                q: inputs.q.as_slice(),
                 time_s: inputs.measured_time_s,
             }
         };
-        let report = self.filter.filter(
+        self.filter.filter(
             now_s,
             anchor,
             &self.v_policy,
             jac,
             barrier,
             &mut self.v_safe,
-        );
-        if !self.compose(position, out) {
-            // Defence in depth: the filter guarantees finiteness; never emit NaN anyway.
-            let publish = self.brake(now_s, out);
-            self.code = StatusCode::SafetyFallback;
-            bump(&mut self.counters.fallback_ticks);
-            self.active = 0;
-            return TickReport {
-                code: self.code,
-                publish,
-                safety: Some(report.status),
-                active_constraints: 0,
-            };
-        }
-        if position {
-            self.q_hold.copy_from_slice(&out.positions);
-            self.pos_history.push(now_s, &out.positions);
-        }
-        self.v_last.copy_from_slice(&out.velocities);
-        self.active = report.active;
+        )
+    }
+
+    /// The counts of a filtered command: joints on a bound, a fallback, a non-finite policy
+    /// output (the NaN of an infeasible condition is reported as such, not as a fault).
+    fn count_filtered(&mut self, report: &SafetyReport, infeasible: bool) {
+        self.last.active = report.active;
         if report.status == SafetyStatus::Fallback {
             bump(&mut self.counters.fallback_ticks);
         }
-        // The NaN of an infeasible condition is reported as such, not as a policy fault.
         if report.policy_nonfinite && !infeasible {
             bump(&mut self.counters.nonfinite_ticks);
         }
-        let rejected = inputs.joint_state_rejected || inputs.condition_rejected;
-        self.code = tick_code(
-            rejected,
-            &report,
-            infeasible,
-            restart,
-            held,
-            lagging,
-            self.singular.status,
-        );
+    }
+
+    /// Brakes toward zero velocity at the acceleration limits (no usable state) into `out`;
+    /// in position modes the braking velocities move the last commanded position. False when
+    /// there is nothing to command (position modes before any joint state).
+    fn brake(&mut self, now_s: f64, out: &mut Command) -> bool {
+        out.mode = self.cfg.output;
+        let position = self.is_position();
+        if position && !self.sup.has_hold() {
+            out.velocities.fill(0.0);
+            out.positions.copy_from_slice(self.sup.q_hold());
+            return false;
+        }
+        out.start_positions.copy_from_slice(self.sup.q_hold());
+        out.start_velocities.copy_from_slice(self.sup.v_last());
+        self.filter.brake(now_s, &mut out.velocities);
+        let dt = self.cfg.period_s;
+        let i = &self.gate.inputs;
+        let limits = self.kin.limits();
+        for j in 0..self.kin.dof() {
+            let from = if position || i.state_time_s.is_none() {
+                self.sup.q_hold()[j]
+            } else {
+                i.q[j]
+            };
+            out.positions[j] = clamp_to(&limits[j], from + out.velocities[j] * dt);
+        }
+        self.sup.commanded(now_s, position, out);
+        true
+    }
+
+    /// The command of the filtered velocity `v`: `v`, and `q + v·Δt` clamped into the
+    /// position limits from the last commanded (position modes) or the measured `q`; false
+    /// when a value is not finite.
+    fn compose(&self, out: &mut Command) -> bool {
+        let position = self.is_position();
+        out.mode = self.cfg.output;
+        out.start_positions.copy_from_slice(self.sup.q_hold());
+        out.start_velocities.copy_from_slice(self.sup.v_last());
+        let dt = self.cfg.period_s;
+        let q = &self.gate.inputs.q;
+        let (hold, limits) = (self.sup.q_hold(), self.kin.limits());
+        let mut finite = true;
+        for j in 0..self.kin.dof() {
+            let v = self.v_safe[j];
+            let from = if position { hold[j] } else { q[j] };
+            let p = clamp_to(&limits[j], from + v * dt);
+            finite &= v.is_finite() && p.is_finite();
+            out.velocities[j] = v;
+            out.positions[j] = p;
+        }
+        finite
+    }
+
+    /// A braking tick ([`Self::brake`]) reported as `code`.
+    fn braking(&mut self, now_s: f64, out: &mut Command, code: StatusCode) -> TickReport {
+        let publish = self.brake(now_s, out);
+        self.last.code = code;
+        self.last.active = 0;
         TickReport {
-            code: self.code,
-            publish: true,
-            safety: Some(report.status),
-            active_constraints: report.active,
+            code,
+            publish,
+            safety: Some(SafetyStatus::Braking),
+            active_constraints: 0,
         }
     }
 
     /// The final command on shutdown (zero velocity / hold position) into `out`; false
     /// when there is nothing to hold (position mode before any joint state).
     pub fn shutdown_command(&mut self, out: &mut Command) -> bool {
-        self.code = StatusCode::Shutdown;
+        self.last.code = StatusCode::Shutdown;
         out.mode = self.cfg.output;
         out.velocities.fill(0.0);
         let i = &self.gate.inputs;
         if !self.is_position() {
             if i.state_time_s.is_some() {
-                for j in 0..self.n {
-                    out.positions[j] = clamp_to(&self.limits[j], i.q[j]);
+                for (j, l) in self.kin.limits().iter().enumerate() {
+                    out.positions[j] = clamp_to(l, i.q[j]);
                 }
             }
             return true;
         }
-        out.positions.copy_from_slice(&self.q_hold);
-        self.has_hold
-    }
-
-    /// Whether the tracking error has stayed above `tracking_warning` for longer than
-    /// `tracking_window_s` (at least one period) at `now_s`; counts such ticks.
-    fn watch_tracking(&mut self, now_s: f64) -> bool {
-        let Some(limit) = self.cfg.safety.tracking_warning else {
-            return false;
-        };
-        if self.tracking_error <= limit {
-            self.tracking_high_since = None;
-            return false;
-        }
-        let since = *self.tracking_high_since.get_or_insert(now_s);
-        let lagging = now_s - since >= self.cfg.safety.tracking_window_s.max(self.cfg.period_s);
-        if lagging {
-            bump(&mut self.counters.tracking_warning_ticks);
-        }
-        lagging
+        out.positions.copy_from_slice(self.sup.q_hold());
+        self.sup.has_hold()
     }
 
     /// What runtime requests may ask for (fixed at start; for the callers' checks).
@@ -840,7 +580,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
 
     /// The singularity band's outcome at the last tick.
     pub fn singularity(&self) -> SingularityReport {
-        self.singular
+        self.band.last()
     }
 
     /// Applies an operator's request between two ticks (checked against
@@ -854,7 +594,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
         self.operator.bounds.check(&r)?;
         match self.operator.apply(&r) {
             OperatorEffect::Done => {}
-            OperatorEffect::Restart => self.has_hold = false,
+            OperatorEffect::Restart => self.sup.drop_hold(),
             OperatorEffect::Elsewhere => self.apply_setting(r)?,
         }
         Ok(())
@@ -864,13 +604,7 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     /// settings, the default condition.
     fn apply_setting(&mut self, r: OperatorRequest) -> Result<(), OperatorRefusal> {
         match r {
-            OperatorRequest::Reset => {
-                self.held = Held::Clear;
-                self.halted = false;
-                self.has_hold = false;
-                self.restart_times.fill(f64::NEG_INFINITY);
-                self.tracking_high_since = None;
-            }
+            OperatorRequest::Reset => self.sup.reset(),
             OperatorRequest::StaleTimeout(t) => {
                 self.cfg.stale_timeout_s = t;
                 self.gate.set_stale_timeout(t);
@@ -918,40 +652,42 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     /// Snapshot for the Status message.
     pub fn status(&self) -> StatusSnapshot {
         let (period_code, period_ticks, period) =
-            self.period.report(self.code, &self.event_totals());
+            self.period.report(self.last.code, &self.event_totals());
+        let (c, i, t) = (&self.counters, &self.gate.inputs, &self.timing);
+        let singular = self.band.last();
         StatusSnapshot {
-            code: self.code,
-            message: self.code.message(),
-            last_error: self.gate.inputs.last_error,
-            active_constraints: self.active,
-            rejected_joint_states: self.gate.inputs.rejected_joint_states,
-            rejected_conditions: self.gate.inputs.rejected_conditions,
-            ticks: self.counters.ticks,
-            stale_ticks: self.counters.stale_ticks,
-            fallback_ticks: self.counters.fallback_ticks,
-            nonfinite_ticks: self.counters.nonfinite_ticks,
-            infeasible_ticks: self.counters.infeasible_ticks,
-            joint_state_age_s: self.age_s,
-            restarts: self.counters.restarts,
-            not_following_ticks: self.counters.not_following_ticks,
-            tracking_warning_ticks: self.counters.tracking_warning_ticks,
-            tracking_error: self.tracking_error,
-            tick_time_us: self.timing.last_us,
-            tick_time_max_us: self.timing.max_us,
-            late_ticks: self.timing.late,
-            missed_ticks: self.timing.missed,
-            tick_late_max_us: self.timing.late_max_us,
-            condition: self.gate.inputs.condition,
+            code: self.last.code,
+            message: self.last.code.message(),
+            last_error: i.last_error,
+            active_constraints: self.last.active,
+            rejected_joint_states: i.rejected_joint_states,
+            rejected_conditions: i.rejected_conditions,
+            ticks: c.ticks,
+            stale_ticks: c.stale_ticks,
+            fallback_ticks: c.fallback_ticks,
+            nonfinite_ticks: c.nonfinite_ticks,
+            infeasible_ticks: c.infeasible_ticks,
+            joint_state_age_s: self.last.age_s,
+            restarts: c.restarts,
+            not_following_ticks: c.not_following_ticks,
+            tracking_warning_ticks: c.tracking_warning_ticks,
+            tracking_error: self.sup.tracking_error(),
+            tick_time_us: t.last_us,
+            tick_time_max_us: t.max_us,
+            late_ticks: t.late,
+            missed_ticks: t.missed,
+            tick_late_max_us: t.late_max_us,
+            condition: i.condition,
             paused: self.operator.paused,
             velocity_scale: self.operator.velocity_scale,
-            singularity_condition: self.singular.condition,
-            singularity_factor: self.singular.factor,
+            singularity_condition: singular.condition,
+            singularity_factor: singular.factor,
             period_code,
             period_ticks,
             period,
-            held_events: self.counters.held_events,
-            locked_events: self.counters.locked_events,
-            locked_joint: self.locked_joint,
+            held_events: c.held_events,
+            locked_events: c.locked_events,
+            locked_joint: self.sup.locked_joint(),
             command_subscribers: self.link.subscribers(),
         }
     }
@@ -990,50 +726,50 @@ impl<O: OutputStage, R: BoundRules> NodeCore<O, R> {
     }
 }
 
-/// The end-effector distance barrier `h(q) = ‖p₁ − p₂‖ − d_min` and its gradient
-/// `∂h/∂q = uᵀ[J₁, −J₂]`, `u = (p₁ − p₂)/‖p₁ − p₂‖`, from `ws` after [`Kinematics::jacobian`].
-/// `None` when the end-effectors coincide (no direction). Allocation-free.
-fn ee_barrier<'g>(
-    kin: &Kinematics,
-    ws: &KinematicsWorkspace,
-    d_min: f64,
-    grad: &'g mut [f64],
-) -> Option<Barrier<'g>> {
-    let d = kin.chains()[0].task.dim();
-    let (x1, x2) = (kin.x_offset(0), kin.x_offset(1));
-    let mut dist2 = 0.0;
-    for r in 0..d {
-        let e = ws.x[x1 + r] - ws.x[x2 + r];
-        dist2 += e * e;
-    }
-    let dist = dist2.sqrt();
-    if !(dist.is_finite() && dist > 1e-9) {
-        return None;
-    }
-    for (col, g) in grad.iter_mut().enumerate() {
-        let mut acc = 0.0;
-        for r in 0..d {
-            let u = (ws.x[x1 + r] - ws.x[x2 + r]) / dist;
-            acc += u * (ws.jac[(x1 + r, col)] - ws.jac[(x2 + r, col)]);
-        }
-        *g = acc;
-    }
-    Some(Barrier {
-        gradient: grad,
-        value: dist - d_min,
-    })
+/// The robot-follows supervisor for `cfg`, with the filter's delays `fs`: its history
+/// spans the stale timeout, the state delay, the latency twice and the tracking window.
+fn supervisor(cfg: &NodeConfig, fs: &SafetySettings, n: usize) -> Supervisor {
+    let safety = &cfg.safety;
+    let capacity =
+        ((cfg.stale_timeout_s + fs.state_delay_s + 2.0 * fs.latency() + safety.tracking_window_s)
+            / cfg.period_s)
+            .ceil()
+            .min(1e5) as usize
+            + 4;
+    let s = FollowSettings {
+        tolerance: safety.tracking_tolerance,
+        window_s: safety.tracking_window_s,
+        warning: safety.tracking_warning,
+        max_restarts: safety.max_restarts,
+        restart_window_s: safety.restart_window_s,
+        held_dwell_s: cfg.motion.held_dwell_s,
+        period_s: cfg.period_s,
+        state_delay_s: fs.state_delay_s,
+        latency_s: fs.latency(),
+    };
+    Supervisor::new(n, s, cfg.motion, capacity)
 }
 
-/// Clamps `x` into `[lower, upper]` (infinite limits bound nothing; NaN stays NaN).
-fn clamp_to(l: &JointLimits, x: f64) -> f64 {
-    let mut y = x;
-    if y > l.upper {
-        y = l.upper;
+/// The node's input gate: the configured condition domain, the trained box (for
+/// `accept_untrained_conditions` switched off at runtime), the feasibility of a
+/// canonicalised policy.
+fn input_gate(
+    cfg: &NodeConfig,
+    kin: &Kinematics,
+    policy: &AnyPolicy,
+) -> Result<InputGate, NodeError> {
+    let domain = checked_domain(cfg, policy)?;
+    let trained = NodeConfig {
+        accept_untrained_conditions: false,
+        ..cfg.clone()
     }
-    if y < l.lower {
-        y = l.lower;
-    }
-    y
+    .condition_domain(policy)
+    .ok()
+    .flatten();
+    Ok(InputGate::new(kin.joint_names(), cfg)
+        .with_domain(domain)
+        .with_trained_domain(trained)
+        .with_feasibility(feasibility(policy, kin.limits())))
 }
 
 /// The status of a tick that published a filtered command, by priority: rejected input,

@@ -27,7 +27,15 @@
 //! (`ROBOT_NOT_FOLLOWING`) until a new condition is accepted. A distance to the command in
 //! effect at the measurement above `safety.tracking_warning` for longer than the window is
 //! reported as `TRACKING_ERROR`.
+//!
+//! Each concern is a part with its own rules and tests, [`NodeCore`] only their order: the
+//! input gate (`gate`), the robot-follows supervisor (`supervisor`: the hold, the envelope,
+//! restarts, the not-following latch, held and locked reactions; `motion` tells held from
+//! locked), the operator state (`operator`), the controller at the command topic (`link`),
+//! the singularity band (`singularity`), the end-effector barrier (`barrier`), the running
+//! totals (`counters`), the status period (`period`) and the tick's timing (`timing`).
 
+mod barrier;
 mod code;
 mod command;
 mod config;
@@ -46,7 +54,10 @@ mod rejection;
 mod singularity;
 mod stage;
 mod status;
+mod supervisor;
 mod task_pose;
+#[cfg(test)]
+mod test_robot;
 mod tf;
 mod timing;
 

@@ -102,6 +102,7 @@ pub struct SingularityBand {
     ws: KinematicsWorkspace,
     q_next: Vec<f64>,
     kappa: Vec<f64>,
+    last: SingularityReport,
 }
 
 impl SingularityBand {
@@ -112,7 +113,41 @@ impl SingularityBand {
             ws: kin.workspace(),
             q_next: vec![0.0; kin.dof()],
             kappa: vec![0.0; kin.chains().len()],
+            last: SingularityReport {
+                status: SingularityStatus::Clear,
+                factor: 1.0,
+                condition: f64::NAN,
+            },
         }
+    }
+
+    /// The outcome of the last [`Self::tick`] (before any: clear, `κ` unknown: NaN).
+    pub fn last(&self) -> SingularityReport {
+        self.last
+    }
+
+    /// The band on a node's tick: [`Self::apply`], or, when the condition is `infeasible`
+    /// (no policy velocity to scale), clear with `κ` reported as ∞; kept as
+    /// [`Self::last`]. Allocation-free.
+    pub fn tick(
+        &mut self,
+        kin: &Kinematics,
+        at_q: &KinematicsWorkspace,
+        q: &[f64],
+        v: &mut [f64],
+        dt: f64,
+        infeasible: bool,
+    ) -> SingularityReport {
+        self.last = if infeasible {
+            SingularityReport {
+                status: SingularityStatus::Clear,
+                factor: 1.0,
+                condition: f64::INFINITY,
+            }
+        } else {
+            self.apply(kin, at_q, q, v, dt)
+        };
+        self.last
     }
 
     /// The settings.
@@ -184,6 +219,56 @@ impl SingularityBand {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::node::test_robot::planar;
+
+    /// A two-link planar arm (links of 1), stretched out at `q₂ = 0`.
+    fn arm() -> Kinematics {
+        const URDF: &str = r#"<robot name="arm2">
+  <link name="base"/> <link name="l1"/> <link name="l2"/> <link name="tip"/>
+  <joint name="j1" type="revolute"> <parent link="base"/> <child link="l1"/>
+    <axis xyz="0 0 1"/> <limit lower="-3" upper="3" effort="10" velocity="2"/> </joint>
+  <joint name="j2" type="revolute"> <parent link="l1"/> <child link="l2"/>
+    <origin xyz="1 0 0"/> <axis xyz="0 0 1"/> <limit lower="-3" upper="3" effort="10" velocity="2"/> </joint>
+  <joint name="tool" type="fixed"> <parent link="l2"/> <child link="tip"/> <origin xyz="1 0 0"/> </joint>
+</robot>"#;
+        planar(URDF, &[("arm", "base", "tip")])
+    }
+
+    #[test]
+    fn the_node_tick_scales_toward_the_stretched_arm_and_reports_an_infeasible_tick_as_clear() {
+        let kin = arm();
+        let mut band = SingularityBand::new(SingularitySettings::default(), &kin);
+        assert!(band.last().condition.is_nan(), "no tick yet");
+        let mut ws = kin.workspace();
+        // Bent well away from the stretched arm: clear, nothing scaled.
+        let q = [0.0, 1.5];
+        kin.jacobian(&q, &mut ws);
+        let mut v = [0.1, -0.3];
+        let r = band.tick(&kin, &ws, &q, &mut v, 0.01, false);
+        assert_eq!((r.status, r.factor), (SingularityStatus::Clear, 1.0));
+        assert!(r.condition.is_finite() && r.condition < 17.0, "{r:?}");
+        assert_eq!(v, [0.1, -0.3]);
+        // Nearly stretched, straightening further: slowed down, every joint alike.
+        let q = [0.0, 0.08];
+        kin.jacobian(&q, &mut ws);
+        let mut v = [0.2, -0.5];
+        let r = band.tick(&kin, &ws, &q, &mut v, 0.01, false);
+        assert_ne!(r.status, SingularityStatus::Clear, "{r:?}");
+        assert!(r.factor < 1.0);
+        assert_eq!(v, [0.2 * r.factor, -0.5 * r.factor]);
+        assert_eq!(band.last(), r);
+        // Bending away from it: not scaled (Servo's rule).
+        let mut v = [0.2, 0.5];
+        let r = band.tick(&kin, &ws, &q, &mut v, 0.01, false);
+        assert_eq!(r.status, SingularityStatus::Clear);
+        assert_eq!(v, [0.2, 0.5]);
+        // Infeasible: no velocity to scale; clear with κ = ∞.
+        let mut v = [f64::NAN; 2];
+        let r = band.tick(&kin, &ws, &q, &mut v, 0.01, true);
+        assert_eq!((r.status, r.factor), (SingularityStatus::Clear, 1.0));
+        assert_eq!(r.condition, f64::INFINITY);
+        assert_eq!(band.last(), r);
+    }
 
     #[test]
     fn the_factor_falls_continuously_across_the_band() {
