@@ -731,7 +731,8 @@ fn secured_context(domain: u16, ks: &Path, enclave: &str) -> Result<ros2_client:
 /// (a) A secured node and a secured mock robot complete a short demo: every process of
 /// `crossym demo` runs secured (Enforce) as its enclave of the shipped policy, and the
 /// loop passes with the same checks as unsecured (`demo: OK`): joint states, commands,
-/// status and the mock robot's resets cross DDS Security.
+/// status, the mock robot's resets and a changed symmetry condition (demo → node, applied
+/// by the node) cross DDS Security.
 #[test]
 fn secured_demo_passes() {
     let domain = 188;
@@ -743,10 +744,11 @@ fn secured_demo_passes() {
             "--no-isolation",
             "--duration-s",
             "1",
-            // The identity condition: a changed one never reaches a secured node yet (see
-            // `secured_operator_reaches_the_node`, ignored).
+            // A changed condition (17°, 0.73, reflected): it must cross from the demo's
+            // secured publisher to the secured node, which no condition did before the
+            // payload-padding fix in vendor/rustdds.patch (vendor/README.md).
             "--condition",
-            "0:1:1",
+            "0.2967:0.73:-1",
             "--out",
             out.to_str().unwrap(),
         ],
@@ -784,6 +786,11 @@ fn secured_demo_passes() {
     assert!(
         hw_log.contains("secured as enclave /crossym/mock_hw (strategy Enforce"),
         "{hw_log}"
+    );
+    assert!(
+        node_log.contains("symmetry condition accepted: θ = 0.2967 rad"),
+        "the secured node never applied the demo's condition\n{}",
+        common::log_tail(&out.join("node.log"))
     );
 }
 
@@ -954,14 +961,12 @@ fn secured_peer_without_the_grant_cannot_pause() {
     assert_eq!(hw.term(), 0);
 }
 
-/// KNOWN TO FAIL (ignored): a request or a condition from another secured participant
-/// reaches the secured node. It does not yet: the node's reliable readers never decode what
-/// a secured peer writes (RustDDS logs `Submessage decoding failed: … ring … 'Unspecified'`
-/// and `Could not find a remote EndpointCryptoHandle` for the (node reader, peer writer)
-/// pair), while the node's own writers and the mock robot's joint states (best effort)
-/// pass. `crossym param get` under /crossym/operator gets no answer either.
+/// (e) A request from another secured participant reaches the secured node: an operator
+/// (enclave /crossym/operator) calls `~/pause` and is answered, and the node logs the pause.
+/// The SetBool request's encrypted payload is not a multiple of 4 octets; RustDDS used to
+/// take the CryptoFooter from the end of the padded DATA payload and fail to decrypt it
+/// (`ring … 'Unspecified'`), so no such request or condition ever arrived (vendor/README.md).
 #[test]
-#[ignore = "a secured peer's requests never reach the secured node (RustDDS, docs/guide/security.md)"]
 fn secured_operator_reaches_the_node() {
     let domain = 193;
     let ks = shipped_keystore(domain, "sec-operator");

@@ -771,10 +771,18 @@ impl CryptoTransform for CryptographicBuiltin {
     // CryptoHeader + CryptoContent + CryptoFooter
     //
     // We can detect which one it is from CryptoHeader contents.
-    // splitting to the three parts has to be done by byte offset, because
-    // SerializedPayload does not have a length marker, but both header and footer
-    // have a fixed length. Footer is not allowed to have receiver specific MACs
-    // here, which makes its size fixed.
+    // Both header and footer have a fixed length (the footer is not allowed to
+    // have receiver specific MACs here).
+    //
+    // The buffer is the serializedPayload element of a DATA submessage, which
+    // the sender pads to a multiple of 4 octets (RTPS 9.4.1, "octetsToNextHeader"
+    // is a multiple of 4; `Data::write_to` appends zeros), and the receiver
+    // takes the whole rest of the submessage as the payload. So up to 3 zero
+    // octets may follow the CryptoFooter, and the footer must not be taken
+    // from the end of the buffer: CryptoContent carries its length, so the
+    // footer follows it; a signed-only SerializedPayload does not, so there
+    // the (at most 4) possible lengths of the padding are tried against the
+    // MAC.
 
     let head_len = BuiltinCryptoHeader::serialized_len();
     let foot_len = BuiltinCryptoFooter::minimal_serialized_len();
@@ -784,11 +792,9 @@ impl CryptoTransform for CryptographicBuiltin {
     if encoded_buffer.len() < head_len + foot_len {
       return Err(security_error("Encoded payload smaller than minimum size"));
     }
-    let (header_bytes, content_and_footer_bytes) = encoded_buffer.split_at(head_len);
-    let (content_bytes, footer_bytes) =
-      content_and_footer_bytes.split_at(content_and_footer_bytes.len() - foot_len);
+    let (header_bytes, content_footer_and_padding) = encoded_buffer.split_at(head_len);
 
-    // Deserialize crypto header and footer
+    // Deserialize crypto header
 
     // .read_from_buffer() does not need endianness, because BuiltinCryptoHeader
     // only contains byte-oriented data, which is insensitive to endianness.
@@ -802,8 +808,6 @@ impl CryptoTransform for CryptographicBuiltin {
         },
       builtin_crypto_header_extra: BuiltinCryptoHeaderExtra(initialization_vector),
     } = crypto_header.try_into()?;
-
-    let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
 
     // Get the payload decode key material
     let decode_key_material = self.session_decode_crypto_materials(
@@ -826,6 +830,14 @@ impl CryptoTransform for CryptographicBuiltin {
 
     let decode_key = &decode_key_material.session_key;
 
+    // Splits `content_and_footer` (without padding) at the footer.
+    let split_footer = |content_and_footer: &[u8]| -> SecurityResult<(Vec<u8>, BuiltinMAC)> {
+      let (content_bytes, footer_bytes) =
+        content_and_footer.split_at(content_and_footer.len() - foot_len);
+      let BuiltinCryptoFooter { common_mac, .. } = BuiltinCryptoFooter::try_from(footer_bytes)?;
+      Ok((Vec::from(content_bytes), common_mac))
+    };
+
     match transformation_kind {
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_NONE => {
         Err(create_security_error_and_log!(
@@ -835,13 +847,46 @@ impl CryptoTransform for CryptographicBuiltin {
       }
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GMAC
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GMAC => {
-        validate_mac(decode_key, initialization_vector, content_bytes, common_mac)
-          // if validate_mac succeeds, then map result to content bytes
-          .map(|()| Vec::from(content_bytes))
+        // The SerializedPayload has no length marker: try the padding lengths
+        // the sender may have added (zeros only), shortest first.
+        let total = content_footer_and_padding.len();
+        let mut result = Err(security_error("Encoded payload smaller than minimum size"));
+        for padding in 0..=3.min(total - foot_len) {
+          let (content_and_footer, pad) = content_footer_and_padding.split_at(total - padding);
+          if pad.iter().any(|b| *b != 0) {
+            break;
+          }
+          result = split_footer(content_and_footer).and_then(|(content, common_mac)| {
+            validate_mac(decode_key, initialization_vector, &content, common_mac).map(|()| content)
+          });
+          if result.is_ok() {
+            break;
+          }
+        }
+        // if validate_mac succeeds, then the result is the content bytes
+        result
       }
       BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES128_GCM
       | BuiltinCryptoTransformationKind::CRYPTO_TRANSFORMATION_KIND_AES256_GCM => {
-        let ciphertext = CryptoContent::read_from_buffer(content_bytes)?.data;
+        // CryptoContent = its length (u32, big-endian) + the ciphertext; the
+        // footer follows it, and only padding may follow the footer.
+        let content_len = content_footer_and_padding
+          .get(..4)
+          .and_then(|l| usize::try_from(u32::from_be_bytes([l[0], l[1], l[2], l[3]])).ok())
+          .and_then(|l| l.checked_add(4))
+          .filter(|l| {
+            l.checked_add(foot_len)
+              .and_then(|used| content_footer_and_padding.len().checked_sub(used))
+              .is_some_and(|padding| padding <= 3)
+          })
+          .ok_or_else(|| {
+            security_error(
+              "Encoded payload: the CryptoContent length does not match the payload length",
+            )
+          })?;
+        let (content_bytes, common_mac) =
+          split_footer(&content_footer_and_padding[..content_len + foot_len])?;
+        let ciphertext = CryptoContent::read_from_buffer(&content_bytes)?.data;
         decrypt(decode_key, initialization_vector, &ciphertext, common_mac)
       }
     }
