@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 
 use parquet::file::reader::FileReader;
 use parquet::file::serialized_reader::SerializedFileReader;
-use parquet::record::Field;
+use parquet::record::{Field, Row};
 
 /// Why a dataset was refused.
 #[derive(Debug, thiserror::Error)]
@@ -153,79 +153,12 @@ pub fn read_states(
     scalars: &[String],
 ) -> Result<LeRobotStates, LeRobotError> {
     let info_path = dir.join("meta/info.json");
-    let info_err = |message: String| LeRobotError::Info {
-        path: info_path.clone(),
-        message,
-    };
-    let text = std::fs::read_to_string(&info_path).map_err(|source| {
-        if source.kind() == std::io::ErrorKind::NotFound {
-            info_err(
-                "missing: not a LeRobot dataset (expected meta/info.json in the directory)".into(),
-            )
-        } else {
-            LeRobotError::Io {
-                path: info_path.clone(),
-                source,
-            }
-        }
-    })?;
-    let info: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| info_err(format!("not JSON: {e}")))?;
-    let version = info["codebase_version"]
-        .as_str()
-        .ok_or_else(|| info_err("no `codebase_version`".into()))?
-        .to_string();
-    if version != "v3.0" && version != "v2.1" {
-        return Err(info_err(format!(
-            "codebase_version `{version}` is not supported (v3.0 and v2.1 are)"
-        )));
-    }
-    let fps = info["fps"]
-        .as_f64()
-        .filter(|f| f.is_finite() && *f > 0.0)
-        .ok_or_else(|| info_err("`fps` is not a positive number".into()))?;
+    let info_err = |message: String| info_error(&info_path, message);
+    let (info, version, fps) = read_info(&info_path)?;
     let features = info["features"]
         .as_object()
         .ok_or_else(|| info_err("no `features` object".into()))?;
-    let (columns, names) = match features.get(state) {
-        Some(f) => {
-            let names = feature_names(&f["names"])
-                .ok_or_else(|| info_err(format!("feature `{state}` has no list of `names`")))?;
-            let shape: Vec<u64> = f["shape"]
-                .as_array()
-                .map(|a| a.iter().filter_map(|x| x.as_u64()).collect())
-                .unwrap_or_default();
-            if shape != [names.len() as u64] {
-                return Err(info_err(format!(
-                    "feature `{state}` has shape {:?} but {} names",
-                    f["shape"],
-                    names.len()
-                )));
-            }
-            (StateColumns::List(state.to_string()), names)
-        }
-        None if !scalars.is_empty() => {
-            for c in scalars {
-                let f = features
-                    .get(c)
-                    .ok_or_else(|| info_err(format!("no feature `{c}`")))?;
-                let shape = f["shape"].as_array().map(|a| a.len()).unwrap_or(0);
-                if shape != 1 || f["shape"][0].as_u64() != Some(1) {
-                    return Err(info_err(format!(
-                        "feature `{c}` has shape {:?}, not [1] (a scalar per frame)",
-                        f["shape"]
-                    )));
-                }
-            }
-            (StateColumns::Scalars(scalars.to_vec()), scalars.to_vec())
-        }
-        None => {
-            return Err(info_err(format!(
-                "no feature `{state}` (features: {})",
-                features.keys().cloned().collect::<Vec<_>>().join(", ")
-            )))
-        }
-    };
+    let (columns, names) = state_columns(features, state, scalars, &info_path)?;
     let mut files = Vec::new();
     parquet_files(&dir.join("data"), &mut files)?;
     if files.is_empty() {
@@ -248,44 +181,8 @@ pub fn read_states(
         })?;
     }
     let mut episodes = Vec::with_capacity(frames.len());
-    for (index, mut rows) in frames {
-        rows.sort_by_key(|r| r.index);
-        let bad = |message: String| LeRobotError::Episode {
-            path: dir.to_path_buf(),
-            episode: index,
-            message,
-        };
-        for (k, w) in rows.windows(2).enumerate() {
-            if w[1].index != w[0].index + 1 {
-                return Err(bad(format!(
-                    "frame_index jumps from {} to {} (frames missing or repeated)",
-                    w[0].index, w[1].index
-                )));
-            }
-            if w[1].t <= w[0].t {
-                return Err(bad(format!(
-                    "timestamp of frame {} ({} s) is not after frame {}'s ({} s)",
-                    k + 1,
-                    w[1].t,
-                    k,
-                    w[0].t
-                )));
-            }
-        }
-        let n = names.len();
-        let mut state = Vec::with_capacity(rows.len() * n);
-        let mut t = Vec::with_capacity(rows.len());
-        for r in &rows {
-            t.push(r.t);
-            state.extend_from_slice(&r.state);
-        }
-        episodes.push(Episode {
-            index,
-            task_index: rows[0].task,
-            file: files[rows[0].file].clone(),
-            t,
-            state,
-        });
+    for (index, rows) in frames {
+        episodes.push(assemble_episode(dir, index, rows, &files, names.len())?);
     }
     Ok(LeRobotStates {
         dir: dir.to_path_buf(),
@@ -293,6 +190,142 @@ pub fn read_states(
         fps,
         names,
         episodes,
+    })
+}
+
+/// The error for a bad `meta/info.json` at `info_path`.
+fn info_error(info_path: &Path, message: String) -> LeRobotError {
+    LeRobotError::Info {
+        path: info_path.to_path_buf(),
+        message,
+    }
+}
+
+/// Reads `meta/info.json`: the JSON, its supported `codebase_version` and its `fps`.
+fn read_info(info_path: &Path) -> Result<(serde_json::Value, String, f64), LeRobotError> {
+    let info_err = |message: String| info_error(info_path, message);
+    let text = std::fs::read_to_string(info_path).map_err(|source| {
+        if source.kind() == std::io::ErrorKind::NotFound {
+            info_err(
+                "missing: not a LeRobot dataset (expected meta/info.json in the directory)".into(),
+            )
+        } else {
+            LeRobotError::Io {
+                path: info_path.to_path_buf(),
+                source,
+            }
+        }
+    })?;
+    let info: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| info_err(format!("not JSON: {e}")))?;
+    let version = info["codebase_version"]
+        .as_str()
+        .ok_or_else(|| info_err("no `codebase_version`".into()))?
+        .to_string();
+    if version != "v3.0" && version != "v2.1" {
+        return Err(info_err(format!(
+            "codebase_version `{version}` is not supported (v3.0 and v2.1 are)"
+        )));
+    }
+    let fps = info["fps"]
+        .as_f64()
+        .filter(|f| f.is_finite() && *f > 0.0)
+        .ok_or_else(|| info_err("`fps` is not a positive number".into()))?;
+    Ok((info, version, fps))
+}
+
+/// Where the state is stored and its names: the list feature `state`, or the scalar
+/// features `scalars` when `state` names no feature.
+fn state_columns(
+    features: &serde_json::Map<String, serde_json::Value>,
+    state: &str,
+    scalars: &[String],
+    info_path: &Path,
+) -> Result<(StateColumns, Vec<String>), LeRobotError> {
+    let info_err = |message: String| info_error(info_path, message);
+    match features.get(state) {
+        Some(f) => {
+            let names = feature_names(&f["names"])
+                .ok_or_else(|| info_err(format!("feature `{state}` has no list of `names`")))?;
+            let shape: Vec<u64> = f["shape"]
+                .as_array()
+                .map(|a| a.iter().filter_map(|x| x.as_u64()).collect())
+                .unwrap_or_default();
+            if shape != [names.len() as u64] {
+                return Err(info_err(format!(
+                    "feature `{state}` has shape {:?} but {} names",
+                    f["shape"],
+                    names.len()
+                )));
+            }
+            Ok((StateColumns::List(state.to_string()), names))
+        }
+        None if !scalars.is_empty() => {
+            for c in scalars {
+                let f = features
+                    .get(c)
+                    .ok_or_else(|| info_err(format!("no feature `{c}`")))?;
+                let shape = f["shape"].as_array().map(|a| a.len()).unwrap_or(0);
+                if shape != 1 || f["shape"][0].as_u64() != Some(1) {
+                    return Err(info_err(format!(
+                        "feature `{c}` has shape {:?}, not [1] (a scalar per frame)",
+                        f["shape"]
+                    )));
+                }
+            }
+            Ok((StateColumns::Scalars(scalars.to_vec()), scalars.to_vec()))
+        }
+        None => Err(info_err(format!(
+            "no feature `{state}` (features: {})",
+            features.keys().cloned().collect::<Vec<_>>().join(", ")
+        ))),
+    }
+}
+
+/// Episode `index` from its frames (any order): consecutive frame indices, increasing
+/// timestamps, `n` state values per frame.
+fn assemble_episode(
+    dir: &Path,
+    index: i64,
+    mut rows: Vec<Frame>,
+    files: &[PathBuf],
+    n: usize,
+) -> Result<Episode, LeRobotError> {
+    rows.sort_by_key(|r| r.index);
+    let bad = |message: String| LeRobotError::Episode {
+        path: dir.to_path_buf(),
+        episode: index,
+        message,
+    };
+    for (k, w) in rows.windows(2).enumerate() {
+        if w[1].index != w[0].index + 1 {
+            return Err(bad(format!(
+                "frame_index jumps from {} to {} (frames missing or repeated)",
+                w[0].index, w[1].index
+            )));
+        }
+        if w[1].t <= w[0].t {
+            return Err(bad(format!(
+                "timestamp of frame {} ({} s) is not after frame {}'s ({} s)",
+                k + 1,
+                w[1].t,
+                k,
+                w[0].t
+            )));
+        }
+    }
+    let mut state = Vec::with_capacity(rows.len() * n);
+    let mut t = Vec::with_capacity(rows.len());
+    for r in &rows {
+        t.push(r.t);
+        state.extend_from_slice(&r.state);
+    }
+    Ok(Episode {
+        index,
+        task_index: rows[0].task,
+        file: files[rows[0].file].clone(),
+        t,
+        state,
     })
 }
 
@@ -438,66 +471,94 @@ fn read_file(
             path: path.to_path_buf(),
             message: format!("row {k}: {e}"),
         })?;
-        let col_err = |column: &str, message: String| LeRobotError::Column {
-            path: path.to_path_buf(),
-            column: column.to_string(),
-            row: k,
-            message,
-        };
-        let get = |name: &str| -> Option<&Field> {
-            r.get_column_iter()
-                .find(|(c, _)| c.as_str() == name)
-                .map(|(_, f)| f)
-        };
-        let int = |name: &str, f: Option<&Field>| -> Result<i64, LeRobotError> {
-            match f {
-                Some(Field::Long(x)) => Ok(*x),
-                Some(Field::Int(x)) => Ok(i64::from(*x)),
-                Some(other) => Err(col_err(name, format!("not an integer: {other}"))),
-                None => Err(col_err(name, "missing".into())),
-            }
-        };
-        let episode = int("episode_index", get("episode_index"))?;
-        let frame = int("frame_index", get("frame_index"))?;
-        let task = match get("task_index") {
+        let fields = RowFields { path, k, row: &r };
+        let episode = fields.int("episode_index", fields.get("episode_index"))?;
+        let frame = fields.int("frame_index", fields.get("frame_index"))?;
+        let task = match fields.get("task_index") {
             None => 0,
-            f => int("task_index", f)?,
+            f => fields.int("task_index", f)?,
         };
-        let t = get("timestamp")
+        let t = fields
+            .get("timestamp")
             .and_then(number)
-            .ok_or_else(|| col_err("timestamp", "missing or not a number".into()))?;
+            .ok_or_else(|| fields.err("timestamp", "missing or not a number".into()))?;
         if !t.is_finite() {
-            return Err(col_err("timestamp", format!("{t} is not finite")));
+            return Err(fields.err("timestamp", format!("{t} is not finite")));
         }
+        let state = fields.state(columns, n)?;
+        row(episode, frame, t, task, state);
+    }
+    Ok(())
+}
+
+/// Row `k` of the Parquet file `path`, read field by field.
+struct RowFields<'a> {
+    path: &'a Path,
+    k: usize,
+    row: &'a Row,
+}
+
+impl<'a> RowFields<'a> {
+    /// The error for this row's `column`.
+    fn err(&self, column: &str, message: String) -> LeRobotError {
+        LeRobotError::Column {
+            path: self.path.to_path_buf(),
+            column: column.to_string(),
+            row: self.k,
+            message,
+        }
+    }
+
+    /// The field of the column `name`, if the row has it.
+    fn get(&self, name: &str) -> Option<&'a Field> {
+        self.row
+            .get_column_iter()
+            .find(|(c, _)| c.as_str() == name)
+            .map(|(_, f)| f)
+    }
+
+    /// The integer `f` of the column `name`.
+    fn int(&self, name: &str, f: Option<&Field>) -> Result<i64, LeRobotError> {
+        match f {
+            Some(Field::Long(x)) => Ok(*x),
+            Some(Field::Int(x)) => Ok(i64::from(*x)),
+            Some(other) => Err(self.err(name, format!("not an integer: {other}"))),
+            None => Err(self.err(name, "missing".into())),
+        }
+    }
+
+    /// The row's `n` state values, all finite.
+    fn state(&self, columns: &StateColumns, n: usize) -> Result<Vec<f64>, LeRobotError> {
         let mut state = Vec::with_capacity(n);
         match columns {
             StateColumns::List(name) => {
-                let Some(Field::ListInternal(list)) = get(name) else {
-                    return Err(col_err(name, "missing or not a list".into()));
+                let Some(Field::ListInternal(list)) = self.get(name) else {
+                    return Err(self.err(name, "missing or not a list".into()));
                 };
                 let el = list.elements();
                 if el.len() != n {
-                    return Err(col_err(
-                        name,
-                        format!("{} values, the feature names {n}", el.len()),
-                    ));
+                    return Err(
+                        self.err(name, format!("{} values, the feature names {n}", el.len()))
+                    );
                 }
                 for (i, f) in el.iter().enumerate() {
                     let v =
-                        number(f).ok_or_else(|| col_err(name, format!("element {i} is {f}")))?;
+                        number(f).ok_or_else(|| self.err(name, format!("element {i} is {f}")))?;
                     state.push(v);
                 }
             }
             StateColumns::Scalars(names) => {
                 for name in names {
-                    let f = get(name).ok_or_else(|| col_err(name, "missing".into()))?;
+                    let f = self
+                        .get(name)
+                        .ok_or_else(|| self.err(name, "missing".into()))?;
                     let v = match f {
                         Field::ListInternal(l) if l.elements().len() == 1 => {
                             number(&l.elements()[0])
                         }
                         f => number(f),
                     }
-                    .ok_or_else(|| col_err(name, format!("not a number: {f}")))?;
+                    .ok_or_else(|| self.err(name, format!("not a number: {f}")))?;
                     state.push(v);
                 }
             }
@@ -507,12 +568,8 @@ fn read_file(
                 StateColumns::List(c) => c.clone(),
                 StateColumns::Scalars(c) => c[i].clone(),
             };
-            return Err(col_err(
-                &column,
-                format!("element {i} is {} (not finite)", state[i]),
-            ));
+            return Err(self.err(&column, format!("element {i} is {} (not finite)", state[i])));
         }
-        row(episode, frame, t, task, state);
+        Ok(state)
     }
-    Ok(())
 }

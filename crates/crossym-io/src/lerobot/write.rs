@@ -111,31 +111,67 @@ pub fn write_dataset(
         path: info_path.clone(),
         message,
     };
+    check_dataset(dir, fps, names.len(), tasks, episodes).map_err(bad)?;
+    let (total, from) = write_frames(dir, names.len(), episodes)?;
+    write_file(
+        &dir.join("meta/tasks.parquet"),
+        "message tasks { REQUIRED INT64 task_index; REQUIRED BYTE_ARRAY task (UTF8); }",
+        vec![
+            Column::Int((0..tasks.len() as i64).collect()),
+            Column::Str(tasks.iter().map(|t| ByteArray::from(t.as_str())).collect()),
+        ],
+    )?;
+    write_episodes(dir, episodes, from)?;
+    let info = info_json(fps, names, tasks, episodes.len(), total);
+    let text = serde_json::to_string_pretty(&info).map_err(|e| bad(e.to_string()))?;
+    std::fs::write(&info_path, text).map_err(|source| LeRobotError::Io {
+        path: info_path.clone(),
+        source,
+    })
+}
+
+/// Refuses a non-empty `dir`, nothing to write, and episodes whose sizes or tasks are off.
+fn check_dataset(
+    dir: &Path,
+    fps: f64,
+    n: usize,
+    tasks: &[String],
+    episodes: &[EpisodeFrames<'_>],
+) -> Result<(), String> {
     if std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some()) {
-        return Err(bad(format!(
+        return Err(format!(
             "{} exists and is not empty: nothing is overwritten",
             dir.display()
-        )));
+        ));
     }
-    let n = names.len();
     if !(fps.is_finite() && fps > 0.0) || n == 0 || episodes.is_empty() {
-        return Err(bad(format!(
+        return Err(format!(
             "fps {fps}, {n} names, {} episodes: nothing to write",
             episodes.len()
-        )));
+        ));
     }
     for (i, e) in episodes.iter().enumerate() {
         if e.state.len() != e.t.len() * n || e.t.is_empty() {
-            return Err(bad(format!(
+            return Err(format!(
                 "episode {i}: {} times and {} values for {n} names",
                 e.t.len(),
                 e.state.len()
-            )));
+            ));
         }
         if e.task_index < 0 || e.task_index as usize >= tasks.len() {
-            return Err(bad(format!("episode {i}: no task {}", e.task_index)));
+            return Err(format!("episode {i}: no task {}", e.task_index));
         }
     }
+    Ok(())
+}
+
+/// Writes every frame (the action is the next frame's state) to the data file; returns
+/// the number of frames and each episode's first frame index.
+fn write_frames(
+    dir: &Path,
+    n: usize,
+    episodes: &[EpisodeFrames<'_>],
+) -> Result<(usize, Vec<i64>), LeRobotError> {
     let (mut ts, mut frame, mut ep, mut index, mut task) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut state, mut action) = (Vec::new(), Vec::new());
@@ -179,14 +215,15 @@ pub fn write_dataset(
             list_column(action, n),
         ],
     )?;
-    write_file(
-        &dir.join("meta/tasks.parquet"),
-        "message tasks { REQUIRED INT64 task_index; REQUIRED BYTE_ARRAY task (UTF8); }",
-        vec![
-            Column::Int((0..tasks.len() as i64).collect()),
-            Column::Str(tasks.iter().map(|t| ByteArray::from(t.as_str())).collect()),
-        ],
-    )?;
+    Ok((total, from))
+}
+
+/// Writes the episodes' index (length, first and past-last frame, all in one file).
+fn write_episodes(
+    dir: &Path,
+    episodes: &[EpisodeFrames<'_>],
+    from: Vec<i64>,
+) -> Result<(), LeRobotError> {
     let lengths: Vec<i64> = episodes.iter().map(|e| e.t.len() as i64).collect();
     let to: Vec<i64> = from.iter().zip(&lengths).map(|(f, l)| f + l).collect();
     write_file(
@@ -202,20 +239,31 @@ pub fn write_dataset(
             Column::Int(vec![0; episodes.len()]),
             Column::Int(vec![0; episodes.len()]),
         ],
-    )?;
+    )
+}
+
+/// The dataset's `meta/info.json` (v3.0).
+fn info_json(
+    fps: f64,
+    names: &[String],
+    tasks: &[String],
+    episodes: usize,
+    total: usize,
+) -> serde_json::Value {
+    let n = names.len();
     let scalar = |dtype: &str| serde_json::json!({"dtype": dtype, "shape": [1], "names": null});
     let vector = serde_json::json!({"dtype": "float64", "shape": [n], "names": names});
-    let info = serde_json::json!({
+    serde_json::json!({
         "codebase_version": "v3.0",
         "robot_type": null,
-        "total_episodes": episodes.len(),
+        "total_episodes": episodes,
         "total_frames": total,
         "total_tasks": tasks.len(),
         "chunks_size": 1000,
         "data_files_size_in_mb": 100,
         "video_files_size_in_mb": 500,
         "fps": fps,
-        "splits": {"train": format!("0:{}", episodes.len())},
+        "splits": {"train": format!("0:{}", episodes)},
         "data_path": "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet",
         "video_path": null,
         "features": {
@@ -227,10 +275,5 @@ pub fn write_dataset(
             "index": scalar("int64"),
             "task_index": scalar("int64"),
         },
-    });
-    let text = serde_json::to_string_pretty(&info).map_err(|e| bad(e.to_string()))?;
-    std::fs::write(&info_path, text).map_err(|source| LeRobotError::Io {
-        path: info_path.clone(),
-        source,
     })
 }
