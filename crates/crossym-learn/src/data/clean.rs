@@ -368,9 +368,44 @@ pub fn clean(
     let last = moving.iter().rposition(|&m| m).expect("some sample moves");
     // Keep the last idle sample before motion and the first idle one after it.
     let (a, b) = (first.saturating_sub(1), (last + 1).min(len - 1));
+    let ranges = motion_ranges(&moving, a, b, cfg.split_idle_s, dt);
+    let mut demos = Vec::new();
+    let mut seen = Extremes::default();
+    for &(s, e) in &ranges {
+        for i in s..=e {
+            seen.observe(&q[i * n..(i + 1) * n], &qdot[i * n..(i + 1) * n], limits);
+        }
+        demos.push(CleanDemo {
+            dt,
+            n,
+            start_s: s as f64 * dt,
+            q: q[s * n..(e + 1) * n].to_vec(),
+            qdot: qdot[s * n..(e + 1) * n].to_vec(),
+        });
+    }
+    let report = CleanReport {
+        max_gap_s: max_gap,
+        resampled: len,
+        trimmed_s: (a as f64 * dt, (len - 1 - b) as f64 * dt),
+        segments: demos.len(),
+        peak_speed: (seen.peak, seen.peak_j),
+        min_margin: seen.margin,
+        outside_limits: seen.outside,
+    };
+    Ok((demos, report))
+}
+
+/// The motion `a..=b` as one range, or split at idle runs of at least `split_idle_s` (s).
+fn motion_ranges(
+    moving: &[bool],
+    a: usize,
+    b: usize,
+    split_idle_s: Option<f64>,
+    dt: f64,
+) -> Vec<(usize, usize)> {
     // Segments: split at idle runs longer than split_idle_s.
     let mut ranges = vec![(a, b)];
-    if let Some(split) = cfg.split_idle_s {
+    if let Some(split) = split_idle_s {
         let min_run = (split / dt).ceil() as usize;
         ranges.clear();
         let (mut start, mut i) = (a, a + 1);
@@ -390,48 +425,41 @@ pub fn clean(
         }
         ranges.push((start, b));
     }
-    let mut demos = Vec::new();
-    let (mut peak, mut peak_j) = (0.0f64, 0);
-    let (mut margin, mut outside) = (None::<(f64, usize)>, 0);
-    for &(s, e) in &ranges {
-        for i in s..=e {
-            for j in 0..n {
-                let v = qdot[i * n + j].abs();
-                if v > peak {
-                    (peak, peak_j) = (v, j);
-                }
-            }
-            if let Some(l) = limits {
-                let mut out = false;
-                for (j, lj) in l.iter().enumerate().take(n) {
-                    let x = q[i * n + j];
-                    let m = (x - lj.lower).min(lj.upper - x);
-                    out |= m < 0.0;
-                    if margin.is_none_or(|(best, _)| m < best) {
-                        margin = Some((m, j));
-                    }
-                }
-                outside += usize::from(out);
+    ranges
+}
+
+/// The peak speed and the limit margins seen over the kept samples.
+#[derive(Default)]
+struct Extremes {
+    peak: f64,
+    peak_j: usize,
+    margin: Option<(f64, usize)>,
+    outside: usize,
+}
+
+impl Extremes {
+    /// Takes in one sample's positions `q` and velocities `qdot`.
+    fn observe(&mut self, q: &[f64], qdot: &[f64], limits: Option<&[JointLimits]>) {
+        let n = q.len();
+        for j in 0..n {
+            let v = qdot[j].abs();
+            if v > self.peak {
+                (self.peak, self.peak_j) = (v, j);
             }
         }
-        demos.push(CleanDemo {
-            dt,
-            n,
-            start_s: s as f64 * dt,
-            q: q[s * n..(e + 1) * n].to_vec(),
-            qdot: qdot[s * n..(e + 1) * n].to_vec(),
-        });
+        if let Some(l) = limits {
+            let mut out = false;
+            for (j, lj) in l.iter().enumerate().take(n) {
+                let x = q[j];
+                let m = (x - lj.lower).min(lj.upper - x);
+                out |= m < 0.0;
+                if self.margin.is_none_or(|(best, _)| m < best) {
+                    self.margin = Some((m, j));
+                }
+            }
+            self.outside += usize::from(out);
+        }
     }
-    let report = CleanReport {
-        max_gap_s: max_gap,
-        resampled: len,
-        trimmed_s: (a as f64 * dt, (len - 1 - b) as f64 * dt),
-        segments: demos.len(),
-        peak_speed: (peak, peak_j),
-        min_margin: margin,
-        outside_limits: outside,
-    };
-    Ok((demos, report))
 }
 
 #[cfg(test)]

@@ -342,56 +342,7 @@ impl LetterSet {
         }
         let mut out = Vec::with_capacity(structs.len());
         for (k, (s, element)) in structs.into_iter().enumerate() {
-            let label = format!("demos{{{}}}", k + 1);
-            let demo_err = |message: String| DataError::Demo {
-                file: file.to_string(),
-                demo: label.clone(),
-                message,
-            };
-            if !matches!(s, MatValue::Struct { .. }) {
-                return Err(demo_err(format!("is {}, expected a struct", s.describe())));
-            }
-            let field = |f: &str| {
-                s.field_of(element, f).ok_or_else(|| {
-                    demo_err(format!(
-                        "has no field `{f}` (fields: {})",
-                        s.field_names().unwrap_or(&[]).join(", ")
-                    ))
-                })
-            };
-            let (pos, t, vel) = (field("pos")?, field("t")?, field("vel")?);
-            let real = |v: &MatValue, f: &str| -> Result<Vec<f64>, DataError> {
-                v.as_real().map(<[f64]>::to_vec).ok_or_else(|| {
-                    demo_err(format!(
-                        "`{f}` is {}, expected a real numeric array",
-                        v.describe()
-                    ))
-                })
-            };
-            let n = t.numel();
-            let t_dims = t.dims();
-            if t_dims.len() != 2 || (t_dims[0] != 1 && t_dims[1] != 1) {
-                return Err(demo_err(format!(
-                    "`t` is {}, expected 1×N",
-                    dims_string(t_dims)
-                )));
-            }
-            let rows2 = |v: &MatValue, f: &str| -> Result<Vec<[f64; 2]>, DataError> {
-                if v.dims() != [2, n] {
-                    return Err(demo_err(format!(
-                        "`{f}` is {}, expected 2×{n} (`t` has {n} samples)",
-                        dims_string(v.dims())
-                    )));
-                }
-                Ok(real(v, f)?.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
-            };
-            let d = Demonstration {
-                t: real(t, "t")?,
-                pos: rows2(pos, "pos")?,
-                vel: rows2(vel, "vel")?,
-            };
-            d.validate().map_err(|e| demo_err(e.to_string()))?;
-            out.push(d);
+            out.push(demonstration(file, k, s, element)?);
         }
         Ok(Self {
             name: name.to_string(),
@@ -545,6 +496,65 @@ fn csv_push(
     d.pos.push([v[1], v[2]]);
     d.vel.push([v[3], v[4]]);
     Ok(())
+}
+
+/// Demonstration `k` of `demos` (element `element` of the struct `s`), checked.
+fn demonstration(
+    file: &str,
+    k: usize,
+    s: &MatValue,
+    element: usize,
+) -> Result<Demonstration, DataError> {
+    let label = format!("demos{{{}}}", k + 1);
+    let demo_err = |message: String| DataError::Demo {
+        file: file.to_string(),
+        demo: label.clone(),
+        message,
+    };
+    if !matches!(s, MatValue::Struct { .. }) {
+        return Err(demo_err(format!("is {}, expected a struct", s.describe())));
+    }
+    let field = |f: &str| {
+        s.field_of(element, f).ok_or_else(|| {
+            demo_err(format!(
+                "has no field `{f}` (fields: {})",
+                s.field_names().unwrap_or(&[]).join(", ")
+            ))
+        })
+    };
+    let (pos, t, vel) = (field("pos")?, field("t")?, field("vel")?);
+    let real = |v: &MatValue, f: &str| -> Result<Vec<f64>, DataError> {
+        v.as_real().map(<[f64]>::to_vec).ok_or_else(|| {
+            demo_err(format!(
+                "`{f}` is {}, expected a real numeric array",
+                v.describe()
+            ))
+        })
+    };
+    let n = t.numel();
+    let t_dims = t.dims();
+    if t_dims.len() != 2 || (t_dims[0] != 1 && t_dims[1] != 1) {
+        return Err(demo_err(format!(
+            "`t` is {}, expected 1×N",
+            dims_string(t_dims)
+        )));
+    }
+    let rows2 = |v: &MatValue, f: &str| -> Result<Vec<[f64; 2]>, DataError> {
+        if v.dims() != [2, n] {
+            return Err(demo_err(format!(
+                "`{f}` is {}, expected 2×{n} (`t` has {n} samples)",
+                dims_string(v.dims())
+            )));
+        }
+        Ok(real(v, f)?.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
+    };
+    let d = Demonstration {
+        t: real(t, "t")?,
+        pos: rows2(pos, "pos")?,
+        vel: rows2(vel, "vel")?,
+    };
+    d.validate().map_err(|e| demo_err(e.to_string()))?;
+    Ok(d)
 }
 
 fn stem(path: &Path) -> String {

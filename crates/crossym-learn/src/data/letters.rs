@@ -24,7 +24,9 @@ use serde::{Deserialize, Serialize};
 
 use super::lasa::LetterSet;
 use super::DataError;
-use crossym_math::kinematics::{DampedPinv, Kinematics, Metric};
+use crossym_math::kinematics::{
+    DampedPinv, Kinematics, KinematicsWorkspace, Metric, PinvWorkspace,
+};
 use crossym_policy::JointTrajectory;
 
 /// One arm's demonstrations: a LASA letter placed in the task space, synthetic reaching
@@ -202,6 +204,68 @@ impl LetterDemos {
     }
 }
 
+/// Centre of the arm's letter box and its in-plane axes, checked finite and of dimension `p0.len()`.
+fn letter_frame(arm: &ArmLetter, p0: &[f64]) -> Result<(Vec<f64>, [Vec<f64>; 2]), DataError> {
+    let d = p0.len();
+    let name = &arm.chain;
+    // Centre of the letter box and in-plane axes.
+    let centre: Vec<f64> = match (&arm.center, &arm.offset) {
+        (Some(c), None) => c.clone(),
+        (None, Some(o)) if o.len() == d => p0.iter().zip(o).map(|(p, o)| p - o).collect(),
+        (None, Some(o)) => {
+            return Err(invalid(format!(
+                "[letters] arm `{name}`: offset has {} values, the task {d}",
+                o.len()
+            )))
+        }
+        _ => {
+            return Err(invalid(format!(
+                "[letters] arm `{name}`: give exactly one of `offset` and `center`"
+            )))
+        }
+    };
+    let axes: [Vec<f64>; 2] = match (d, &arm.plane) {
+        (2, None) => [vec![1.0, 0.0], vec![0.0, 1.0]],
+        (3, Some([u, v])) => [u.to_vec(), v.to_vec()],
+        _ => {
+            return Err(invalid(format!(
+                "[letters] arm `{name}`: a letter needs an xy chain, or an xyz chain \
+                 with `plane = [u, v]`"
+            )))
+        }
+    };
+    if centre.len() != d
+        || centre
+            .iter()
+            .chain(&axes[0])
+            .chain(&axes[1])
+            .any(|v| !v.is_finite())
+    {
+        return Err(invalid(format!(
+            "[letters] arm `{name}`: centre/offset/plane must be finite and {d}-dimensional"
+        )));
+    }
+    Ok((centre, axes))
+}
+
+/// Joint min/max per coordinate over all demonstrations of the letter loaded from `path`.
+fn letter_extent(set: &LetterSet, path: &Path) -> Result<([f64; 2], [f64; 2]), DataError> {
+    // Joint min/max per coordinate over all demonstrations.
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for demo in &set.demos {
+        for p in &demo.pos {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+    }
+    if (0..2).any(|k| hi[k] <= lo[k] || hi[k].is_nan() || lo[k].is_nan()) {
+        return Err(invalid(format!("{}: letter has no extent", path.display())));
+    }
+    Ok((lo, hi))
+}
+
 fn invalid(what: impl Into<String>) -> DataError {
     DataError::Invalid {
         message: what.into(),
@@ -219,91 +283,20 @@ impl LetterTaskConfig {
         base_dir: &Path,
     ) -> Result<Vec<Vec<Vec<f64>>>, DataError> {
         let d = p0.len();
-        let name = &arm.chain;
         if !arm.reach.is_empty() {
-            if arm.letter.is_some() {
-                return Err(invalid(format!(
-                    "[letters] arm `{name}`: give either `letter` or `reach`, not both"
-                )));
-            }
-            return arm
-                .reach
-                .iter()
-                .map(|r| match &r.start {
-                    None => r.sample(p0, self.dt),
-                    Some(q) if q.len() == chain.dof() && q.iter().all(|v| v.is_finite()) => {
-                        let mut ws = chain.workspace();
-                        let p = chain.position(q, &mut ws);
-                        r.sample(&[p.x, p.y, p.z][..d], self.dt)
-                    }
-                    Some(q) => Err(format!(
-                        "reach start needs {} finite joint values, got {:?}",
-                        chain.dof(),
-                        q
-                    )),
-                })
-                .collect::<Result<_, _>>()
-                .map_err(|e| invalid(format!("[letters] arm `{name}`: {e}")));
+            return self.reach_paths(arm, chain, p0);
         }
         let Some(letter) = &arm.letter else {
             return Ok(Vec::new());
         };
-        // Centre of the letter box and in-plane axes.
-        let centre: Vec<f64> = match (&arm.center, &arm.offset) {
-            (Some(c), None) => c.clone(),
-            (None, Some(o)) if o.len() == d => p0.iter().zip(o).map(|(p, o)| p - o).collect(),
-            (None, Some(o)) => {
-                return Err(invalid(format!(
-                    "[letters] arm `{name}`: offset has {} values, the task {d}",
-                    o.len()
-                )))
-            }
-            _ => {
-                return Err(invalid(format!(
-                    "[letters] arm `{name}`: give exactly one of `offset` and `center`"
-                )))
-            }
-        };
-        let axes: [Vec<f64>; 2] = match (d, &arm.plane) {
-            (2, None) => [vec![1.0, 0.0], vec![0.0, 1.0]],
-            (3, Some([u, v])) => [u.to_vec(), v.to_vec()],
-            _ => {
-                return Err(invalid(format!(
-                    "[letters] arm `{name}`: a letter needs an xy chain, or an xyz chain \
-                     with `plane = [u, v]`"
-                )))
-            }
-        };
-        if centre.len() != d
-            || centre
-                .iter()
-                .chain(&axes[0])
-                .chain(&axes[1])
-                .any(|v| !v.is_finite())
-        {
-            return Err(invalid(format!(
-                "[letters] arm `{name}`: centre/offset/plane must be finite and {d}-dimensional"
-            )));
-        }
+        let (centre, axes) = letter_frame(arm, p0)?;
         let path = if letter.is_absolute() {
             letter.clone()
         } else {
             base_dir.join(letter)
         };
         let set = LetterSet::load(&path)?;
-        // Joint min/max per coordinate over all demonstrations.
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for demo in &set.demos {
-            for p in &demo.pos {
-                for k in 0..2 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
-            }
-        }
-        if (0..2).any(|k| hi[k] <= lo[k] || hi[k].is_nan() || lo[k].is_nan()) {
-            return Err(invalid(format!("{}: letter has no extent", path.display())));
-        }
+        let (lo, hi) = letter_extent(&set, &path)?;
         let r = self.half_range;
         Ok(set
             .demos
@@ -321,6 +314,39 @@ impl LetterTaskConfig {
                     .collect()
             })
             .collect())
+    }
+
+    /// The arm's sampled reaches, each from `p0` or from its own start configuration.
+    fn reach_paths(
+        &self,
+        arm: &ArmLetter,
+        chain: &crossym_math::kinematics::Chain,
+        p0: &[f64],
+    ) -> Result<Vec<Vec<Vec<f64>>>, DataError> {
+        let d = p0.len();
+        let name = &arm.chain;
+        if arm.letter.is_some() {
+            return Err(invalid(format!(
+                "[letters] arm `{name}`: give either `letter` or `reach`, not both"
+            )));
+        }
+        arm.reach
+            .iter()
+            .map(|r| match &r.start {
+                None => r.sample(p0, self.dt),
+                Some(q) if q.len() == chain.dof() && q.iter().all(|v| v.is_finite()) => {
+                    let mut ws = chain.workspace();
+                    let p = chain.position(q, &mut ws);
+                    r.sample(&[p.x, p.y, p.z][..d], self.dt)
+                }
+                Some(q) => Err(format!(
+                    "reach start needs {} finite joint values, got {:?}",
+                    chain.dof(),
+                    q
+                )),
+            })
+            .collect::<Result<_, _>>()
+            .map_err(|e| invalid(format!("[letters] arm `{name}`: {e}")))
     }
 
     /// Loads the letters (paths relative to `base_dir`) and tracks them with `kin`.
@@ -534,12 +560,7 @@ pub(crate) fn track(
     targets: &[Vec<Vec<f64>>],
     tr: &Tracking,
 ) -> Result<(Vec<JointTrajectory>, f64), DataError> {
-    let (n, m) = (kin.dof(), kin.task_dim());
-    let mut kws = kin.workspace();
-    // Tracking with damped least squares (identity metric, μ on J Jᵀ).
-    let dls = DampedPinv::new(Metric::identity(n), tr.damping.sqrt(), 0.0)
-        .map_err(|e| invalid(e.to_string()))?;
-    let mut pws = dls.workspace(m);
+    let mut tracker = Tracker::new(kin, tr.damping)?;
     let [js, je] = tr.drop_joint;
     if je == 0 {
         return Err(invalid(
@@ -548,8 +569,6 @@ pub(crate) fn track(
     }
     let mut demos = Vec::new();
     let mut max_err: f64 = 0.0;
-    let mut e = vec![0.0; m];
-    let mut dq = vec![0.0; n];
     for (k, t) in targets.iter().enumerate() {
         let mut q = rest.to_vec();
         for (_, qo, v) in starts.iter().filter(|s| s.0 == k) {
@@ -562,38 +581,9 @@ pub(crate) fn track(
             )));
         }
         for _ in 0..tr.settle_iterations {
-            kin.jacobian(&q, &mut kws);
-            for r in 0..m {
-                e[r] = t[0][r] - kws.x[r];
-            }
-            dls.factor(&kws.jac, &mut pws);
-            dls.solve(&mut pws, &e, &mut dq);
-            for (a, b) in q.iter_mut().zip(&dq) {
-                *a += b;
-            }
+            tracker.step(&mut q, &t[0]);
         }
-        let mut qs: Vec<f64> = Vec::with_capacity(t.len() * n);
-        let mut errs = Vec::with_capacity(t.len());
-        for target in t {
-            kin.jacobian(&q, &mut kws);
-            for r in 0..m {
-                e[r] = target[r] - kws.x[r];
-            }
-            dls.factor(&kws.jac, &mut pws);
-            dls.solve(&mut pws, &e, &mut dq);
-            for (a, b) in q.iter_mut().zip(&dq) {
-                *a += b;
-            }
-            let x = kin.forward(&q, &mut kws);
-            errs.push(
-                x.iter()
-                    .zip(target)
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum::<f64>()
-                    .sqrt(),
-            );
-            qs.extend_from_slice(&q);
-        }
+        let (qs, errs) = tracker.follow(&mut q, t);
         let len = t.len();
         if len <= js + je + 1 {
             return Err(invalid(format!(
@@ -601,29 +591,109 @@ pub(crate) fn track(
                 k + 1
             )));
         }
-        let keep = js..len - je;
-        let mut traj = JointTrajectory {
-            demo: k + 1,
-            n,
-            m,
-            dt: tr.dt,
-            q: Vec::new(),
-            qdot: Vec::new(),
-            x: Vec::new(),
-        };
-        for i in keep.clone() {
-            let qi = &qs[i * n..(i + 1) * n];
-            let qn = &qs[(i + 1) * n..(i + 2) * n];
-            traj.q.extend_from_slice(qi);
-            traj.qdot
-                .extend(qi.iter().zip(qn).map(|(a, b)| (b - a) / tr.dt));
-            traj.x.extend(kin.forward(qi, &mut kws).iter());
-            max_err = max_err.max(errs[i]);
-        }
+        let traj = tracker.trajectory(k, &qs, js..len - je, &errs, &mut max_err, tr.dt);
         if traj.q.iter().chain(&traj.qdot).any(|v| !v.is_finite()) {
             return Err(invalid(format!("demo {}: tracking diverged", k + 1)));
         }
         demos.push(traj);
     }
     Ok((demos, max_err))
+}
+
+/// Damped least-squares tracking of task targets (identity metric, μ on J Jᵀ) with its
+/// workspaces.
+struct Tracker<'a> {
+    kin: &'a Kinematics,
+    dls: DampedPinv,
+    kws: KinematicsWorkspace,
+    pws: PinvWorkspace,
+    /// Task error (m).
+    e: Vec<f64>,
+    /// Joint step (n).
+    dq: Vec<f64>,
+}
+
+impl<'a> Tracker<'a> {
+    /// A tracker for `kin` with damping `μ`.
+    fn new(kin: &'a Kinematics, damping: f64) -> Result<Self, DataError> {
+        let (n, m) = (kin.dof(), kin.task_dim());
+        let kws = kin.workspace();
+        // Tracking with damped least squares (identity metric, μ on J Jᵀ).
+        let dls = DampedPinv::new(Metric::identity(n), damping.sqrt(), 0.0)
+            .map_err(|e| invalid(e.to_string()))?;
+        let pws = dls.workspace(m);
+        Ok(Self {
+            kin,
+            dls,
+            kws,
+            pws,
+            e: vec![0.0; m],
+            dq: vec![0.0; n],
+        })
+    }
+
+    /// One damped least-squares step of `q` towards `target`.
+    fn step(&mut self, q: &mut [f64], target: &[f64]) {
+        self.kin.jacobian(q, &mut self.kws);
+        for r in 0..self.e.len() {
+            self.e[r] = target[r] - self.kws.x[r];
+        }
+        self.dls.factor(&self.kws.jac, &mut self.pws);
+        self.dls.solve(&mut self.pws, &self.e, &mut self.dq);
+        for (a, b) in q.iter_mut().zip(&self.dq) {
+            *a += b;
+        }
+    }
+
+    /// One step per target from `q`: the joint samples and each sample's tracking error.
+    fn follow(&mut self, q: &mut [f64], t: &[Vec<f64>]) -> (Vec<f64>, Vec<f64>) {
+        let mut qs: Vec<f64> = Vec::with_capacity(t.len() * q.len());
+        let mut errs = Vec::with_capacity(t.len());
+        for target in t {
+            self.step(q, target);
+            let x = self.kin.forward(q, &mut self.kws);
+            errs.push(
+                x.iter()
+                    .zip(target)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f64>()
+                    .sqrt(),
+            );
+            qs.extend_from_slice(q);
+        }
+        (qs, errs)
+    }
+
+    /// Demonstration `k` from the joint samples `keep` of `qs` (forward-difference
+    /// velocities); raises `max_err` to the kept samples' errors.
+    fn trajectory(
+        &mut self,
+        k: usize,
+        qs: &[f64],
+        keep: std::ops::Range<usize>,
+        errs: &[f64],
+        max_err: &mut f64,
+        dt: f64,
+    ) -> JointTrajectory {
+        let (n, m) = (self.kin.dof(), self.kin.task_dim());
+        let mut traj = JointTrajectory {
+            demo: k + 1,
+            n,
+            m,
+            dt,
+            q: Vec::new(),
+            qdot: Vec::new(),
+            x: Vec::new(),
+        };
+        for i in keep {
+            let qi = &qs[i * n..(i + 1) * n];
+            let qn = &qs[(i + 1) * n..(i + 2) * n];
+            traj.q.extend_from_slice(qi);
+            traj.qdot
+                .extend(qi.iter().zip(qn).map(|(a, b)| (b - a) / dt));
+            traj.x.extend(self.kin.forward(qi, &mut self.kws).iter());
+            *max_err = max_err.max(errs[i]);
+        }
+        traj
+    }
 }

@@ -137,11 +137,7 @@ pub fn read_joint_states(
     let n = joints.len();
     let mut t_ns: Vec<i128> = Vec::new();
     let mut q = Vec::new();
-    let mut ignored = std::collections::BTreeSet::new();
-    // Column of each configured joint in the previous message's name list (messages of one
-    // driver share their layout; looked up again when it changes).
-    let mut layout: Vec<String> = Vec::new();
-    let mut cols: Vec<usize> = vec![0; n];
+    let mut layout = Layout::new(n);
     let first_receive = bag
         .messages
         .iter()
@@ -170,29 +166,11 @@ pub fn read_joint_states(
                 js.position.len()
             )));
         }
-        if js.name != layout {
-            joint_columns(&js.name, joints, &mut cols).map_err(fail)?;
-            for nm in &js.name {
-                if !joints.contains(nm) {
-                    ignored.insert(nm.clone());
-                }
-            }
-            layout = js.name.clone();
-        }
-        for (j, &c) in cols.iter().enumerate() {
-            let v = js.position[c];
-            if !v.is_finite() {
-                return Err(fail(format!("position of `{}` is {v}", joints[j])));
-            }
-            q.push(v);
-        }
-        let ns = match stamps {
-            StampSource::Header => {
-                i128::from(js.header.stamp.sec) * 1_000_000_000
-                    + i128::from(js.header.stamp.nanosec)
-            }
-            StampSource::Receive => i128::from(raw.log_ns),
-        };
+        layout.update(&js.name, joints).map_err(fail)?;
+        layout
+            .push_positions(&js.position, joints, &mut q)
+            .map_err(fail)?;
+        let ns = stamp_ns(&js, raw.log_ns, stamps);
         if let Some(&prev) = t_ns.last() {
             if ns <= prev {
                 return Err(fail(not_after(stamps, ns, prev)));
@@ -216,8 +194,68 @@ pub fn read_joint_states(
             .collect(),
         start_ns,
         q,
-        ignored: ignored.into_iter().collect(),
+        ignored: layout.ignored.into_iter().collect(),
     })
+}
+
+/// Column of each configured joint in the previous message's name list (messages of one
+/// driver share their layout; looked up again when it changes), and the names ignored.
+struct Layout {
+    names: Vec<String>,
+    cols: Vec<usize>,
+    ignored: std::collections::BTreeSet<String>,
+}
+
+impl Layout {
+    /// No layout seen yet, for `n` configured joints.
+    fn new(n: usize) -> Self {
+        Self {
+            names: Vec::new(),
+            cols: vec![0; n],
+            ignored: std::collections::BTreeSet::new(),
+        }
+    }
+
+    /// Looks the configured `joints` up again in `names` when they are a new layout.
+    fn update(&mut self, names: &[String], joints: &[String]) -> Result<(), String> {
+        if names != self.names {
+            joint_columns(names, joints, &mut self.cols)?;
+            for nm in names {
+                if !joints.contains(nm) {
+                    self.ignored.insert(nm.clone());
+                }
+            }
+            self.names = names.to_vec();
+        }
+        Ok(())
+    }
+
+    /// Appends the configured joints' positions (all finite) to `q`.
+    fn push_positions(
+        &self,
+        position: &[f64],
+        joints: &[String],
+        q: &mut Vec<f64>,
+    ) -> Result<(), String> {
+        for (j, &c) in self.cols.iter().enumerate() {
+            let v = position[c];
+            if !v.is_finite() {
+                return Err(format!("position of `{}` is {v}", joints[j]));
+            }
+            q.push(v);
+        }
+        Ok(())
+    }
+}
+
+/// A message's time (ns) by `stamps`: its header stamp or its receive time `log_ns`.
+fn stamp_ns(js: &JointState, log_ns: u64, stamps: StampSource) -> i128 {
+    match stamps {
+        StampSource::Header => {
+            i128::from(js.header.stamp.sec) * 1_000_000_000 + i128::from(js.header.stamp.nanosec)
+        }
+        StampSource::Receive => i128::from(log_ns),
+    }
 }
 
 /// Index of `topic` in `bag`, which must carry `sensor_msgs/msg/JointState`.

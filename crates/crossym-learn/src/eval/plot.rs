@@ -536,23 +536,7 @@ fn draw_curves<DB: DrawingBackend>(
     curves: &[Vec<(f64, f64)>],
 ) -> Result<(), String> {
     ensure_font()?;
-    let pts = curves
-        .iter()
-        .flatten()
-        .filter(|(x, y)| x.is_finite() && y.is_finite());
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, 0.0f64, 0.0f64);
-    for &(x, y) in pts {
-        x0 = x0.min(x);
-        x1 = x1.max(x);
-        y0 = y0.min(y);
-        y1 = y1.max(y);
-    }
-    if x0 >= x1 {
-        return Err("curves have no finite extent".into());
-    }
-    let pad = 0.08 * (y1 - y0).max(1e-9);
-    let top = if y1 > 0.0 { y1 + pad } else { pad };
-    let bottom = if y0 < 0.0 { y0 - pad } else { 0.0 };
+    let (x0, x1, bottom, top) = curve_extent(curves)?;
     root.fill(&WHITE).map_err(err)?;
     let mut chart = ChartBuilder::on(root)
         .caption(&fig.title, (FAMILY, 20))
@@ -588,14 +572,7 @@ fn draw_curves<DB: DrawingBackend>(
         }
     }
     for (i, c) in curves.iter().enumerate() {
-        let ramp = fig.ramp.unwrap_or(curves.len());
-        let colour = if fig.categorical {
-            CATEGORICAL[i % CATEGORICAL.len()]
-        } else if i < ramp {
-            curve_colour(i, ramp)
-        } else {
-            BLACK
-        };
+        let colour = figure_colour(fig, i, curves.len());
         let series = chart
             .draw_series(LineSeries::new(
                 c.iter()
@@ -621,6 +598,41 @@ fn draw_curves<DB: DrawingBackend>(
             .map_err(err)?;
     }
     Ok(())
+}
+
+/// The chart's ranges `(x0, x1, bottom, top)`: the finite points' `x` extent and their `y`
+/// extent with 0, padded; refused when `x` has no extent.
+fn curve_extent(curves: &[Vec<(f64, f64)>]) -> Result<(f64, f64, f64, f64), String> {
+    let pts = curves
+        .iter()
+        .flatten()
+        .filter(|(x, y)| x.is_finite() && y.is_finite());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, 0.0f64, 0.0f64);
+    for &(x, y) in pts {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
+    }
+    if x0 >= x1 {
+        return Err("curves have no finite extent".into());
+    }
+    let pad = 0.08 * (y1 - y0).max(1e-9);
+    let top = if y1 > 0.0 { y1 + pad } else { pad };
+    let bottom = if y0 < 0.0 { y0 - pad } else { 0.0 };
+    Ok((x0, x1, bottom, top))
+}
+
+/// Colour of curve `i` of `n`: categorical, along the ramp, or black past the ramp.
+fn figure_colour(fig: &CurveFigure, i: usize, n: usize) -> RGBColor {
+    let ramp = fig.ramp.unwrap_or(n);
+    if fig.categorical {
+        CATEGORICAL[i % CATEGORICAL.len()]
+    } else if i < ramp {
+        curve_colour(i, ramp)
+    } else {
+        BLACK
+    }
 }
 
 #[cfg(test)]

@@ -575,12 +575,7 @@ pub fn train_with_features(
     let cum = window_counts(&prepared, config.pad_end, span);
     let windows = *cum.last().unwrap_or(&0);
     if windows == 0 {
-        return Err(PolicyError::Data {
-            message: format!(
-                "no trajectory has the {} samples a horizon of {h} (stride {stride}) needs",
-                span + 1
-            ),
-        });
+        return Err(too_short(h, stride));
     }
     let spec = MlpSpec {
         input: normalizer.input_dim() + m,
@@ -589,16 +584,6 @@ pub fn train_with_features(
         activation: config.activation,
     };
     let mlp = CandleMlp::init(&spec, config.seed)?;
-    let mut sampler = Sampler {
-        cum: cum.clone(),
-        rng: StdRng::seed_from_u64(config.seed ^ 0x9E37_79B9_7F4A_7C15),
-    };
-    let mut eval_sampler = Sampler {
-        cum,
-        rng: StdRng::seed_from_u64(config.seed ^ 0xD1B5_4A32_D192_ED03),
-    };
-    let mut noise_rng = StdRng::seed_from_u64(config.seed ^ 0x94D0_49BB_1331_11EB);
-    let w_v = config.velocity_weight;
     // The loss reported before and after training: full horizon, no start noise.
     let full = Windows {
         h,
@@ -607,48 +592,15 @@ pub fn train_with_features(
         m,
         noise: 0.0,
     };
-    let eval = make_batch(
-        &prepared,
-        &mut eval_sampler,
-        &mut noise_rng,
-        config.batch_size.max(256),
-        full,
-    )?;
-    let initial_loss = scalar(&batch_loss(&mlp, &eval, graph.as_ref(), h, w_v)?)?;
-
-    let mut opt = AdamW::new(
-        mlp.vars(),
-        ParamsAdamW {
-            lr: config.learning_rate,
-            beta1: 0.9,
-            beta2: 0.999,
-            eps: 1e-8,
-            weight_decay: config.weight_decay,
-        },
-    )?;
-    let start = Instant::now();
-    let batches = Batches {
-        prepared: &prepared,
-        sampler: &mut sampler,
-        noise_rng: &mut noise_rng,
-        full,
-    };
-    optimise(
+    let (initial_loss, final_loss, seconds) = fit_mlp(
         &mlp,
-        &mut opt,
         config,
-        batches,
+        &prepared,
+        cum,
         graph.as_ref(),
+        full,
         &mut progress,
     )?;
-    let seconds = start.elapsed().as_secs_f64();
-    let final_loss = scalar(&batch_loss(&mlp, &eval, graph.as_ref(), h, w_v)?)?;
-    if !final_loss.is_finite() {
-        return Err(PolicyError::Diverged {
-            iteration: config.iterations,
-            loss: final_loss,
-        });
-    }
     meta.train_config = Some(config.clone());
     let policy = Policy::with_task_features(normalizer, mlp.to_inference()?, features, meta)?;
     Ok((
@@ -662,6 +614,87 @@ pub fn train_with_features(
             skipped_short,
         },
     ))
+}
+
+/// Trains `mlp` on windows of `prepared` (counts `cum`); the loss on one evaluation batch
+/// of `full` windows before and after, and the seconds the optimisation took.
+fn fit_mlp(
+    mlp: &CandleMlp,
+    config: &TrainConfig,
+    prepared: &[Prepared],
+    cum: Vec<usize>,
+    graph: Option<&FeatureGraph>,
+    full: Windows,
+    progress: &mut impl FnMut(usize, f64),
+) -> Result<(f64, f64, f64), PolicyError> {
+    let h = full.h;
+    let (mut sampler, mut eval_sampler, mut noise_rng) = samplers(cum, config.seed);
+    let w_v = config.velocity_weight;
+    let eval = make_batch(
+        prepared,
+        &mut eval_sampler,
+        &mut noise_rng,
+        config.batch_size.max(256),
+        full,
+    )?;
+    let initial_loss = scalar(&batch_loss(mlp, &eval, graph, h, w_v)?)?;
+    let mut opt = adamw(mlp, config)?;
+    let start = Instant::now();
+    let batches = Batches {
+        prepared,
+        sampler: &mut sampler,
+        noise_rng: &mut noise_rng,
+        full,
+    };
+    optimise(mlp, &mut opt, config, batches, graph, progress)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let final_loss = scalar(&batch_loss(mlp, &eval, graph, h, w_v)?)?;
+    if !final_loss.is_finite() {
+        return Err(PolicyError::Diverged {
+            iteration: config.iterations,
+            loss: final_loss,
+        });
+    }
+    Ok((initial_loss, final_loss, seconds))
+}
+
+/// The error for data without a trajectory long enough for one window.
+fn too_short(h: usize, stride: usize) -> PolicyError {
+    PolicyError::Data {
+        message: format!(
+            "no trajectory has the {} samples a horizon of {h} (stride {stride}) needs",
+            h * stride + 1
+        ),
+    }
+}
+
+/// The training and evaluation window samplers over `cum` and the start-noise generator,
+/// each seeded from `seed`.
+fn samplers(cum: Vec<usize>, seed: u64) -> (Sampler, Sampler, StdRng) {
+    let sampler = Sampler {
+        cum: cum.clone(),
+        rng: StdRng::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15),
+    };
+    let eval_sampler = Sampler {
+        cum,
+        rng: StdRng::seed_from_u64(seed ^ 0xD1B5_4A32_D192_ED03),
+    };
+    let noise_rng = StdRng::seed_from_u64(seed ^ 0x94D0_49BB_1331_11EB);
+    (sampler, eval_sampler, noise_rng)
+}
+
+/// The AdamW optimiser of `mlp`'s variables with `config`'s rate and weight decay.
+fn adamw(mlp: &CandleMlp, config: &TrainConfig) -> Result<AdamW, PolicyError> {
+    Ok(AdamW::new(
+        mlp.vars(),
+        ParamsAdamW {
+            lr: config.learning_rate,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-8,
+            weight_decay: config.weight_decay,
+        },
+    )?)
 }
 
 /// Checks that task features are given exactly when `config` asks for them and fits their

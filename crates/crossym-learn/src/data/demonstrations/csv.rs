@@ -24,6 +24,42 @@ pub(super) enum CsvTable {
 /// Parses a CSV source: header, optional `t`, joint columns or `<chain>.<axis>` columns.
 pub(super) fn parse_csv(text: &str, file: &Path, kin: &Kinematics) -> Result<CsvTable, String> {
     let f = file.display();
+    let (cols, rows) = parse_rows(text, file)?;
+    let col = |name: &str| cols.iter().position(|c| *c == name);
+    let t = col("t").map(|i| rows.iter().map(|r| r[i]).collect::<Vec<f64>>());
+    let joints = kin.joint_names();
+    let joint_cols: Vec<Option<usize>> = joints.iter().map(|j| col(j)).collect();
+    let task_cols = task_columns(kin, &cols, file)?;
+    let any_joint = joint_cols.iter().any(Option::is_some);
+    match (any_joint, task_cols.is_empty()) {
+        (true, false) => Err(format!(
+            "{f}: has both joint and task columns; give one kind"
+        )),
+        (true, true) => joint_table(file, joints, &joint_cols, &cols, &rows, t),
+        (false, false) => {
+            let m = kin.task_dim();
+            let targets = rows
+                .iter()
+                .map(|r| {
+                    let mut x = vec![f64::NAN; m];
+                    for &(c, k) in &task_cols {
+                        x[k] = r[c];
+                    }
+                    x
+                })
+                .collect();
+            Ok(CsvTable::Task { t, targets })
+        }
+        (false, true) => Err(format!(
+            "{f}: no joint columns ({}) and no task columns (`<chain>.x`, …)",
+            joints.join(", ")
+        )),
+    }
+}
+
+/// The header's column names and the rows of finite numbers (blank and `#` lines skipped).
+fn parse_rows<'a>(text: &'a str, file: &Path) -> Result<(Vec<&'a str>, Vec<Vec<f64>>), String> {
+    let f = file.display();
     let mut lines = text
         .lines()
         .enumerate()
@@ -56,11 +92,16 @@ pub(super) fn parse_csv(text: &str, file: &Path, kin: &Kinematics) -> Result<Csv
     if rows.is_empty() {
         return Err(format!("{f}: no samples"));
     }
+    Ok((cols, rows))
+}
+
+/// Task columns `<chain>.<axis>`: `(csv column, task coordinate)`, all of a chain's or none.
+fn task_columns(
+    kin: &Kinematics,
+    cols: &[&str],
+    file: &Path,
+) -> Result<Vec<(usize, usize)>, String> {
     let col = |name: &str| cols.iter().position(|c| *c == name);
-    let t = col("t").map(|i| rows.iter().map(|r| r[i]).collect::<Vec<f64>>());
-    let joints = kin.joint_names();
-    let joint_cols: Vec<Option<usize>> = joints.iter().map(|j| col(j)).collect();
-    // Task columns `<chain>.<axis>`.
     let mut task_cols: Vec<(usize, usize)> = Vec::new(); // (csv column, task coordinate)
     for (ci, c) in kin.chains().iter().enumerate() {
         let d = c.task.dim();
@@ -78,7 +119,8 @@ pub(super) fn parse_csv(text: &str, file: &Path, kin: &Kinematics) -> Result<Csv
             ),
             _ => {
                 return Err(format!(
-                    "{f}: chain `{}` needs all of its {d} task columns {}",
+                    "{}: chain `{}` needs all of its {d} task columns {}",
+                    file.display(),
                     c.name,
                     ["x", "y", "z"][..d]
                         .iter()
@@ -89,56 +131,43 @@ pub(super) fn parse_csv(text: &str, file: &Path, kin: &Kinematics) -> Result<Csv
             }
         }
     }
-    let any_joint = joint_cols.iter().any(Option::is_some);
-    match (any_joint, task_cols.is_empty()) {
-        (true, false) => Err(format!(
-            "{f}: has both joint and task columns; give one kind"
-        )),
-        (true, true) => {
-            if let Some(k) = joint_cols.iter().position(Option::is_none) {
-                return Err(format!("{f}: no column for joint `{}`", joints[k]));
-            }
-            let n = joints.len();
-            let mut q = Vec::with_capacity(rows.len() * n);
-            for r in &rows {
-                q.extend(joint_cols.iter().map(|c| r[c.expect("checked")]));
-            }
-            let used: Vec<usize> = joint_cols.iter().flatten().copied().collect();
-            let ignored: Vec<String> = cols
-                .iter()
-                .enumerate()
-                .filter(|(i, c)| !used.contains(i) && **c != "t")
-                .map(|(_, c)| c.to_string())
-                .collect();
-            Ok(CsvTable::Joints(JointRecording {
-                bag: file.to_path_buf(),
-                topic: "csv".into(),
-                joints: joints.to_vec(),
-                t: t.ok_or_else(|| format!("{f}: joint columns need a `t` column (s)"))?,
-                start_ns: 0,
-                q,
-                ignored,
-            }))
-        }
-        (false, false) => {
-            let m = kin.task_dim();
-            let targets = rows
-                .iter()
-                .map(|r| {
-                    let mut x = vec![f64::NAN; m];
-                    for &(c, k) in &task_cols {
-                        x[k] = r[c];
-                    }
-                    x
-                })
-                .collect();
-            Ok(CsvTable::Task { t, targets })
-        }
-        (false, true) => Err(format!(
-            "{f}: no joint columns ({}) and no task columns (`<chain>.x`, …)",
-            joints.join(", ")
-        )),
+    Ok(task_cols)
+}
+
+/// A joint recording from the joint columns (every joint needs one, and `t` is needed).
+fn joint_table(
+    file: &Path,
+    joints: &[String],
+    joint_cols: &[Option<usize>],
+    cols: &[&str],
+    rows: &[Vec<f64>],
+    t: Option<Vec<f64>>,
+) -> Result<CsvTable, String> {
+    let f = file.display();
+    if let Some(k) = joint_cols.iter().position(Option::is_none) {
+        return Err(format!("{f}: no column for joint `{}`", joints[k]));
     }
+    let n = joints.len();
+    let mut q = Vec::with_capacity(rows.len() * n);
+    for r in rows {
+        q.extend(joint_cols.iter().map(|c| r[c.expect("checked")]));
+    }
+    let used: Vec<usize> = joint_cols.iter().flatten().copied().collect();
+    let ignored: Vec<String> = cols
+        .iter()
+        .enumerate()
+        .filter(|(i, c)| !used.contains(i) && **c != "t")
+        .map(|(_, c)| c.to_string())
+        .collect();
+    Ok(CsvTable::Joints(JointRecording {
+        bag: file.to_path_buf(),
+        topic: "csv".into(),
+        joints: joints.to_vec(),
+        t: t.ok_or_else(|| format!("{f}: joint columns need a `t` column (s)"))?,
+        start_ns: 0,
+        q,
+        ignored,
+    }))
 }
 
 /// A task CSV tracked into joint space from `start`; the demonstrations and their largest

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use super::config::{AngleUnit, DemonstrationsConfig, SourceConfig};
 use crate::data::recorded::{load_recording, Recorded};
 use crate::data::recording::JointRecording;
-use crossym_io::lerobot::{read_states, read_tasks};
+use crossym_io::lerobot::{read_states, read_tasks, LeRobotStates};
 use crossym_math::kinematics::{JointKind, Kinematics};
 use crossym_policy::JointTrajectory;
 
@@ -31,79 +31,12 @@ pub(super) fn load(
     let state = s.state.as_deref().unwrap_or("observation.state");
     let scalars = s.features.clone().unwrap_or_default();
     let data = read_states(&dir, state, &scalars).map_err(|e| e.to_string())?;
-    // Column of each controlled joint in the state.
-    let column = |joint: &str| {
-        data.names
-            .iter()
-            .position(|n| n == joint || n.strip_suffix(".pos") == Some(joint))
-    };
-    let mut cols = Vec::with_capacity(kin.dof());
-    for j in kin.joint_names() {
-        cols.push(column(j).ok_or_else(|| {
-            format!(
-                "{}: the state `{state}` names no joint `{j}` (names: {})",
-                dir.display(),
-                data.names.join(", ")
-            )
-        })?);
-    }
-    let mut ignored: Vec<String> = data
-        .names
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !cols.contains(i))
-        .map(|(_, n)| n.clone())
-        .collect();
-    ignored.sort();
-    let scale: Vec<f64> = kin
-        .joint_names()
-        .iter()
-        .map(|j| {
-            let revolute = kin
-                .model()
-                .joint(j)
-                .is_ok_and(|m| matches!(m.kind, JointKind::Revolute | JointKind::Continuous));
-            match s.units.unwrap_or_default() {
-                AngleUnit::Deg if revolute => std::f64::consts::PI / 180.0,
-                _ => 1.0,
-            }
-        })
-        .collect();
+    let (cols, ignored) = joint_columns(&data, kin, &dir, state)?;
+    let scale = unit_scale(kin, s.units.unwrap_or_default());
     if let Some(want) = &s.episodes {
-        if let Some(e) = want
-            .iter()
-            .find(|e| !data.episodes.iter().any(|x| x.index == **e))
-        {
-            return Err(format!(
-                "{}: no episode {e} (episodes: {})",
-                dir.display(),
-                data.episodes
-                    .iter()
-                    .map(|x| x.index.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
-        }
+        check_episodes(want, &data, &dir)?;
     }
-    // `task`: the episodes whose first frame has that task.
-    let task_index = match &s.task {
-        None => None,
-        Some(want) => {
-            let tasks = read_tasks(&dir).map_err(|e| e.to_string())?;
-            let found = tasks.iter().find(|(_, t)| t == want).map(|(i, _)| *i);
-            Some(found.ok_or_else(|| {
-                format!(
-                    "{}: no task `{want}` (tasks: {})",
-                    dir.display(),
-                    tasks
-                        .iter()
-                        .map(|(_, t)| format!("`{t}`"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            })?)
-        }
-    };
+    let task_index = task_index(s, &dir)?;
     let width = data.names.len();
     let mut demos = Vec::new();
     let mut reports = Vec::new();
@@ -144,4 +77,96 @@ pub(super) fn load(
         return Err(format!("{}: no episode selected", dir.display()));
     }
     Ok((demos, reports))
+}
+
+/// The state column of each controlled joint, and the state's other names (sorted).
+fn joint_columns(
+    data: &LeRobotStates,
+    kin: &Kinematics,
+    dir: &Path,
+    state: &str,
+) -> Result<(Vec<usize>, Vec<String>), String> {
+    // Column of each controlled joint in the state.
+    let column = |joint: &str| {
+        data.names
+            .iter()
+            .position(|n| n == joint || n.strip_suffix(".pos") == Some(joint))
+    };
+    let mut cols = Vec::with_capacity(kin.dof());
+    for j in kin.joint_names() {
+        cols.push(column(j).ok_or_else(|| {
+            format!(
+                "{}: the state `{state}` names no joint `{j}` (names: {})",
+                dir.display(),
+                data.names.join(", ")
+            )
+        })?);
+    }
+    let mut ignored: Vec<String> = data
+        .names
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !cols.contains(i))
+        .map(|(_, n)| n.clone())
+        .collect();
+    ignored.sort();
+    Ok((cols, ignored))
+}
+
+/// Per controlled joint, the factor to radians (or metres) of the dataset's `units`.
+fn unit_scale(kin: &Kinematics, units: AngleUnit) -> Vec<f64> {
+    kin.joint_names()
+        .iter()
+        .map(|j| {
+            let revolute = kin
+                .model()
+                .joint(j)
+                .is_ok_and(|m| matches!(m.kind, JointKind::Revolute | JointKind::Continuous));
+            match units {
+                AngleUnit::Deg if revolute => std::f64::consts::PI / 180.0,
+                _ => 1.0,
+            }
+        })
+        .collect()
+}
+
+/// Refuses an asked-for episode the dataset does not have.
+fn check_episodes(want: &[i64], data: &LeRobotStates, dir: &Path) -> Result<(), String> {
+    if let Some(e) = want
+        .iter()
+        .find(|e| !data.episodes.iter().any(|x| x.index == **e))
+    {
+        return Err(format!(
+            "{}: no episode {e} (episodes: {})",
+            dir.display(),
+            data.episodes
+                .iter()
+                .map(|x| x.index.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    Ok(())
+}
+
+/// `task`: the index of the task whose episodes (by their first frame) are selected.
+fn task_index(s: &SourceConfig, dir: &Path) -> Result<Option<i64>, String> {
+    match &s.task {
+        None => Ok(None),
+        Some(want) => {
+            let tasks = read_tasks(dir).map_err(|e| e.to_string())?;
+            let found = tasks.iter().find(|(_, t)| t == want).map(|(i, _)| *i);
+            Ok(Some(found.ok_or_else(|| {
+                format!(
+                    "{}: no task `{want}` (tasks: {})",
+                    dir.display(),
+                    tasks
+                        .iter()
+                        .map(|(_, t)| format!("`{t}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })?))
+        }
+    }
 }
