@@ -314,25 +314,11 @@ where
         finite,
     } = sample_pairs(kin, &action, big_n, &mut rng, &mut ws);
     let scale = if size > 0.0 { size } else { 1.0 };
-    let (linear, affine, rank) = if finite {
-        let (l, rank) = fit_linear(&x, &y);
-        (Some(l), fit_affine(&x, &y), rank)
-    } else {
-        (None, None, matrix_rank(&x))
-    };
-    let linear_residual = linear
-        .as_ref()
-        .map_or(f64::INFINITY, |l| residual(&x, &y, l, None));
-    let affine_residual = affine
-        .as_ref()
-        .map_or(f64::INFINITY, |(l, b)| residual(&x, &y, l, Some(b)));
+    let (linear, affine, rank) = fit_task_maps(&x, &y, finite);
+    let (linear_residual, affine_residual) = (linear.1, affine.1);
     let tol = settings.relative_tolerance * scale;
-    let (task_action, max_residual, affine_needed) = choose_task_action(
-        (linear, linear_residual),
-        (affine, affine_residual),
-        tol,
-        settings.permutation_tolerance,
-    );
+    let (task_action, max_residual, affine_needed) =
+        choose_task_action(linear, affine, tol, settings.permutation_tolerance);
     let (fibre_residual, fibre_pairs) = if n > m && finite {
         fibre_test(kin, &action, &qs, settings, scale, &mut rng, &mut ws)
     } else {
@@ -412,14 +398,39 @@ where
     }
 }
 
+/// The linear and affine least-squares fits of `y` on `x` (none unless `finite`), each
+/// with its worst residual (infinite without a fit), and the rank of the samples `x`.
+fn fit_task_maps(
+    x: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    finite: bool,
+) -> (Fitted<DMatrix<f64>>, Fitted<AffineFit>, usize) {
+    let (linear, affine, rank) = if finite {
+        let (l, rank) = fit_linear(x, y);
+        (Some(l), fit_affine(x, y), rank)
+    } else {
+        (None, None, matrix_rank(x))
+    };
+    let linear_residual = linear
+        .as_ref()
+        .map_or(f64::INFINITY, |l| residual(x, y, l, None));
+    let affine_residual = affine
+        .as_ref()
+        .map_or(f64::INFINITY, |(l, b)| residual(x, y, l, Some(b)));
+    ((linear, linear_residual), (affine, affine_residual), rank)
+}
+
 /// An affine fit `x ↦ L x + b`.
 type AffineFit = (DMatrix<f64>, DVector<f64>);
+
+/// A fit, if there is one, and its worst residual.
+type Fitted<T> = (Option<T>, f64);
 
 /// The task action that fits within `tol` — linear (a signed permutation where one is
 /// near), else affine, else none — with its residual and whether the offset was needed.
 fn choose_task_action(
-    (linear, linear_residual): (Option<DMatrix<f64>>, f64),
-    (affine, affine_residual): (Option<AffineFit>, f64),
+    (linear, linear_residual): Fitted<DMatrix<f64>>,
+    (affine, affine_residual): Fitted<AffineFit>,
     tol: f64,
     permutation_tolerance: f64,
 ) -> (Option<DescendedAction>, f64, bool) {
