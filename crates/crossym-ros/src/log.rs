@@ -225,6 +225,18 @@ impl StatusWatch {
 
     /// Compares `s` with the previous snapshot and logs what changed.
     pub fn observe(&mut self, s: &StatusSnapshot, log: &mut NodeLog) {
+        self.observe_inputs(s, log);
+        let prev = self.previous(s);
+        Self::observe_subscribers(&prev, s, self.last.is_some(), log);
+        self.observe_held_locked(&prev, s, log);
+        Self::observe_late_ticks(s, log);
+        Self::observe_not_following(&prev, s, log);
+        Self::observe_counters(&prev, s, log);
+        self.last = Some(*s);
+    }
+
+    /// Joint states missing, stale, or fresh again.
+    fn observe_inputs(&mut self, s: &StatusSnapshot, log: &mut NodeLog) {
         let stale = s.code == StatusCode::StaleJointStates;
         match (self.last, stale) {
             (None, true) => log.log(
@@ -258,7 +270,11 @@ impl StatusWatch {
             _ => {}
         }
         self.stale = stale;
-        let prev = self.last.unwrap_or(StatusSnapshot {
+    }
+
+    /// The previous snapshot, or (at the first) `s` with its events and counters at zero.
+    fn previous(&self, s: &StatusSnapshot) -> StatusSnapshot {
+        self.last.unwrap_or(StatusSnapshot {
             held_events: 0,
             locked_events: 0,
             command_subscribers: None,
@@ -269,15 +285,23 @@ impl StatusWatch {
             not_following_ticks: 0,
             tracking_warning_ticks: 0,
             ..*s
-        });
-        // The controller switched off, and on again.
+        })
+    }
+
+    /// The controller switched off, and on again (`seen_before`: a previous snapshot exists).
+    fn observe_subscribers(
+        prev: &StatusSnapshot,
+        s: &StatusSnapshot,
+        seen_before: bool,
+        log: &mut NodeLog,
+    ) {
         match (prev.command_subscribers, s.command_subscribers) {
             (Some(a), Some(0)) if a > 0 => log.log(
                 Severity::Error,
                 "the command topic has no subscriber (the controller was switched off): \
                  braking to a hold",
             ),
-            (Some(0), Some(n)) if n > 0 && self.last.is_some() => log.log(
+            (Some(0), Some(n)) if n > 0 && seen_before => log.log(
                 Severity::Info,
                 &format!(
                     "the command topic has {n} subscriber(s) again: commands restart from the \
@@ -286,6 +310,10 @@ impl StatusWatch {
             ),
             _ => {}
         }
+    }
+
+    /// The robot held, or a joint locked, since the previous snapshot.
+    fn observe_held_locked(&self, prev: &StatusSnapshot, s: &StatusSnapshot, log: &mut NodeLog) {
         if s.held_events > prev.held_events {
             log.limited(
                 "robot_held",
@@ -312,7 +340,10 @@ impl StatusWatch {
                 ),
             );
         }
-        // A loaded computer: ticks late or never run in the status period.
+    }
+
+    /// A loaded computer: ticks late or never run in the status period.
+    fn observe_late_ticks(s: &StatusSnapshot, log: &mut NodeLog) {
         if s.period.late_ticks > 0 || s.period.missed_ticks > 0 {
             log.limited(
                 "ticks_late",
@@ -330,8 +361,11 @@ impl StatusWatch {
                 ),
             );
         }
-        // The robot not following is an error, logged when it begins (and again, at most
-        // once a second, while it lasts).
+    }
+
+    /// The robot not following is an error, logged when it begins (and again, at most once a
+    /// second, while it lasts).
+    fn observe_not_following(prev: &StatusSnapshot, s: &StatusSnapshot, log: &mut NodeLog) {
         if s.not_following_ticks > prev.not_following_ticks {
             log.limited(
                 "robot_not_following",
@@ -344,6 +378,11 @@ impl StatusWatch {
                 ),
             );
         }
+    }
+
+    /// The counted events (fallbacks, non-finite outputs, infeasible conditions, restarts,
+    /// tracking warnings) new since the previous snapshot.
+    fn observe_counters(prev: &StatusSnapshot, s: &StatusSnapshot, log: &mut NodeLog) {
         for (kind, all, before, what, tracking) in [
             (
                 "safety_fallback",
@@ -394,7 +433,6 @@ impl StatusWatch {
                 log.limited(kind, Severity::Warn, &line);
             }
         }
-        self.last = Some(*s);
     }
 }
 

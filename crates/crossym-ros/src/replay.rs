@@ -10,7 +10,7 @@
 
 use std::collections::VecDeque;
 
-use crossym_control::node::{Inputs, SHUTDOWN_SEQUENCE_BIT};
+use crossym_control::node::{Command, InputGate, Inputs, SHUTDOWN_SEQUENCE_BIT};
 use crossym_control::{NodeCore, OutputMode};
 use crossym_io::bag::{Bag, BagError};
 use crossym_io::msg;
@@ -80,26 +80,15 @@ pub fn replay(
     let cond = bag.topic(&topics.condition);
     let life = bag.topic(&topics.lifecycle);
     crate::node::lifecycle::apply_autostart(core);
-    let n = core.joint_names().len();
-    let mut gate = core.input_gate();
-    let mut history: VecDeque<Inputs> = VecDeque::new();
-    history.push_back(gate.inputs().clone());
-    let mut cmd = core.command();
-    let mut report = ReplayReport {
-        inputs: 0,
-        commands: 0,
-        unmatched: 0,
-        max_abs_deviation: vec![0.0; n],
-    };
-    let mode = core.config().output;
+    let mut r = Replay::new(bag, core, topics, cmd_topic);
     for (i, m) in bag.messages.iter().enumerate() {
         let now = m.log_ns as f64 * 1e-9;
         if m.topic == js {
             let s: msg::JointState = bag.decode(i)?;
-            let _ = gate.on_joint_state(&s, now);
+            let _ = r.gate.on_joint_state(&s, now);
         } else if Some(m.topic) == cond {
             let s: msg::SymmetryCondition = bag.decode(i)?;
-            let _ = gate.on_condition(&s);
+            let _ = r.gate.on_condition(&s);
         } else if Some(m.topic) == life {
             // A lifecycle transition as the node applied it (between two ticks).
             let e: msg::TransitionEvent = bag.decode(i)?;
@@ -107,55 +96,128 @@ pub fn replay(
             let _ = core.apply(crossym_control::node::OperatorRequest::Activate(active));
             continue;
         } else if m.topic == cmd_topic {
-            let recorded: Vec<f64> = match mode {
-                OutputMode::Velocity | OutputMode::Position => {
-                    bag.decode::<msg::Float64MultiArray>(i)?.data
-                }
-                OutputMode::Trajectory => bag
-                    .decode::<msg::JointTrajectory>(i)?
-                    .points
-                    .last()
-                    .map(|p| p.positions.clone())
-                    .unwrap_or_default(),
-            };
-            let shutdown = m.sequence & SHUTDOWN_SEQUENCE_BIT != 0;
-            let seq = m.sequence & !SHUTDOWN_SEQUENCE_BIT;
-            let Some(k) = history.iter().rposition(|s| s.command_sequence() == seq) else {
-                report.unmatched += 1;
-                continue;
-            };
-            core.load_inputs(&history[k]);
-            history.drain(..k);
-            if shutdown {
-                core.shutdown_command(&mut cmd);
-            } else {
-                core.tick(now, &mut cmd);
-            }
-            report.commands += 1;
-            let data = cmd.data();
-            if recorded.len() != n {
-                return Err(BagError::Decode {
-                    path: bag.path.clone(),
-                    topic: topics.command.clone(),
-                    ros_type: bag.topics[cmd_topic].ros_type.clone(),
-                    index: i,
-                    message: format!("{} values, the node controls {n} joints", recorded.len()),
-                });
-            }
-            for j in 0..n {
-                let d = (recorded[j] - data[j]).abs();
-                let d = if d.is_nan() { f64::INFINITY } else { d };
-                report.max_abs_deviation[j] = report.max_abs_deviation[j].max(d);
-            }
+            r.on_command(core, i, m.sequence, now)?;
             continue;
         } else {
             continue;
         }
-        report.inputs += 1;
+        r.on_input();
+    }
+    Ok(r.report)
+}
+
+/// A replay between two messages: the gate, the input snapshots no recorded command has
+/// used yet, the command buffer and the report so far.
+struct Replay<'a> {
+    bag: &'a Bag,
+    topics: &'a ReplayTopics,
+    cmd_topic: usize,
+    mode: OutputMode,
+    n: usize,
+    gate: InputGate,
+    history: VecDeque<Inputs>,
+    cmd: Command,
+    report: ReplayReport,
+}
+
+impl<'a> Replay<'a> {
+    fn new(bag: &'a Bag, core: &NodeCore, topics: &'a ReplayTopics, cmd_topic: usize) -> Self {
+        let n = core.joint_names().len();
+        let gate = core.input_gate();
+        let mut history: VecDeque<Inputs> = VecDeque::new();
         history.push_back(gate.inputs().clone());
-        if history.len() > 4096 {
-            history.pop_front();
+        Self {
+            bag,
+            topics,
+            cmd_topic,
+            mode: core.config().output,
+            n,
+            gate,
+            history,
+            cmd: core.command(),
+            report: ReplayReport {
+                inputs: 0,
+                commands: 0,
+                unmatched: 0,
+                max_abs_deviation: vec![0.0; n],
+            },
         }
     }
-    Ok(report)
+
+    /// An input message went through the gate: its snapshot is kept (the last 4096).
+    fn on_input(&mut self) {
+        self.report.inputs += 1;
+        self.history.push_back(self.gate.inputs().clone());
+        if self.history.len() > 4096 {
+            self.history.pop_front();
+        }
+    }
+
+    /// The recorded command `i` (MCAP `sequence`, logged at `now`): its tick re-run on the
+    /// snapshot it names and the outputs compared.
+    fn on_command(
+        &mut self,
+        core: &mut NodeCore,
+        i: usize,
+        sequence: u32,
+        now: f64,
+    ) -> Result<(), BagError> {
+        let recorded = self.recorded(i)?;
+        let shutdown = sequence & SHUTDOWN_SEQUENCE_BIT != 0;
+        let seq = sequence & !SHUTDOWN_SEQUENCE_BIT;
+        let Some(k) = self
+            .history
+            .iter()
+            .rposition(|s| s.command_sequence() == seq)
+        else {
+            self.report.unmatched += 1;
+            return Ok(());
+        };
+        core.load_inputs(&self.history[k]);
+        self.history.drain(..k);
+        if shutdown {
+            core.shutdown_command(&mut self.cmd);
+        } else {
+            core.tick(now, &mut self.cmd);
+        }
+        self.report.commands += 1;
+        self.compare(i, &recorded)
+    }
+
+    /// The values of recorded command `i` (a trajectory's last point).
+    fn recorded(&self, i: usize) -> Result<Vec<f64>, BagError> {
+        Ok(match self.mode {
+            OutputMode::Velocity | OutputMode::Position => {
+                self.bag.decode::<msg::Float64MultiArray>(i)?.data
+            }
+            OutputMode::Trajectory => self
+                .bag
+                .decode::<msg::JointTrajectory>(i)?
+                .points
+                .last()
+                .map(|p| p.positions.clone())
+                .unwrap_or_default(),
+        })
+    }
+
+    /// Folds |recorded − recomputed| per joint into the report (NaN counts as infinite).
+    fn compare(&mut self, i: usize, recorded: &[f64]) -> Result<(), BagError> {
+        let n = self.n;
+        let data = self.cmd.data();
+        if recorded.len() != n {
+            return Err(BagError::Decode {
+                path: self.bag.path.clone(),
+                topic: self.topics.command.clone(),
+                ros_type: self.bag.topics[self.cmd_topic].ros_type.clone(),
+                index: i,
+                message: format!("{} values, the node controls {n} joints", recorded.len()),
+            });
+        }
+        for j in 0..n {
+            let d = (recorded[j] - data[j]).abs();
+            let d = if d.is_nan() { f64::INFINITY } else { d };
+            self.report.max_abs_deviation[j] = self.report.max_abs_deviation[j].max(d);
+        }
+        Ok(())
+    }
 }

@@ -49,7 +49,7 @@ use super::dds::{self, DdsError, DdsSettings};
 use super::event_loop::LoopThread;
 use super::log::{NodeLog, StatusWatch};
 use super::realtime::{apply_realtime, RealtimeHold};
-use crossym_control::node::{InputGate, NodeCore, OutputMode};
+use crossym_control::node::{InputGate, NodeConfig, NodeCore, OutputMode};
 use crossym_control::Severity;
 use crossym_io::bag::BagError;
 
@@ -68,10 +68,7 @@ pub fn run(
     lifecycle::apply_autostart(&mut core);
     // Checked against SUPPORTED_ROS_DISTROS when the config was read.
     let settings = settings.with_config_distro(cfg.ros_distro.as_deref())?;
-    let recorder = match record {
-        Some(dir) => Some(start_recorder(dir, &cfg)?),
-        None => None,
-    };
+    let recorder = record.map(|dir| start_recorder(dir, &cfg)).transpose()?;
     // The control thread is the participant's event-loop thread: the hook waits for its
     // state until the node is set up.
     let shared = Arc::new(LoopThread::default());
@@ -81,55 +78,22 @@ pub fn run(
     // the control thread (applies them between ticks).
     let (ops_tx, ops_rx) = std::sync::mpsc::sync_channel::<Operator>(64);
     let (to_control, from_io) = std::sync::mpsc::sync_channel(64);
-    let started = Arc::new(AtomicBool::new(false));
-    let mut node = ctx
-        .new_node(
-            dds::node_name(&cfg.namespace, &cfg.name)?,
-            params::node_options(&core, ops_tx, started.clone()),
-        )
-        .map_err(|e| DdsError::Create {
-            what: format!("node {}/{}", cfg.namespace, cfg.name),
-            message: format!("{e:?}"),
-        })?;
-    let ends = Endpoints::create(&mut node, &cfg)?;
+    let GraphNode {
+        node,
+        ends,
+        services,
+        lifecycle_services,
+        logger,
+        spinner,
+    } = GraphNode::create(&ctx, &cfg, &core, ops_tx)?;
     let command_pub = ends.command.clone();
     let command_subscribers = Arc::new(AtomicU32::new(u32::MAX));
-    let services = Services::create(&mut node)?;
-    let lifecycle_services = lifecycle::LifecycleServices::create(&mut node)?;
-    started.store(true, Ordering::Release);
-    let logger = node.logging_handle();
-    let spinner = node.spinner().map_err(|e| DdsError::Create {
-        what: "spinner".into(),
-        message: format!("{e:?}"),
-    })?;
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .thread_name("crossym-io")
-        .build()
-        .map_err(|e| NodeRunError::Runtime {
-            message: e.to_string(),
-        })?;
+    let runtime = io_runtime()?;
 
     let stop = stop.unwrap_or_else(|| Arc::new(AtomicBool::new(false)));
     let gate = core.input_gate();
     let names = core.joint_names().to_vec();
-    let mut log = NodeLog::new(
-        &cfg.name,
-        Some(logger),
-        cfg.log_level,
-        Duration::from_secs(1),
-    );
-    for line in startup_summary(&core, &gate, &settings, record) {
-        log.log(Severity::Info, &line);
-    }
-    // SROS2: secured as which enclave, off, or the permissive fallback's warning.
-    let security = settings.security_mode()?;
-    let severity = match security.warning() {
-        Some(_) => Severity::Warn,
-        None => Severity::Info,
-    };
-    log.log(severity, &security.describe());
+    let mut log = open_log(&core, &gate, &settings, record, logger)?;
     let (to_io, from_control) = std::sync::mpsc::sync_channel(256);
     let links = Links {
         to_io,
@@ -139,6 +103,149 @@ pub fn run(
         from_io,
         command_subscribers: command_subscribers.clone(),
     };
+    let control_thread = start_control(core, ends, links, &setup_tx, &shared)?;
+    // Held until the node stops (the kernel drops the CPU latency request on close).
+    let RealtimeHold {
+        cpu_latency: _cpu_latency,
+        idle_poll,
+    } = hold_realtime(&cfg, control_thread, &mut log);
+
+    let mut io = IoSide {
+        gate,
+        watch: StatusWatch::with_names(names.clone()),
+        names,
+        from_control,
+        log,
+        ops: ops_rx,
+        to_control,
+        services,
+        paused: false,
+        lifecycle: initial_lifecycle(&cfg),
+        lifecycle_services,
+        command_subscribers,
+    };
+    let matched = || command_pub.subscription_count(&node);
+    runtime.block_on(io.serve(spinner, &stop, &matched));
+    stop.store(true, Ordering::Release);
+    shared.wake();
+    let stats = finish(&done_rx, recorder, io);
+    drop(idle_poll);
+    drop(node);
+    runtime.shutdown_timeout(Duration::from_millis(200));
+    stats
+}
+
+/// The node on the DDS graph with its endpoints and services (parameter, operator and
+/// lifecycle), before the control thread takes the endpoints, its `/rosout` handle and
+/// its spinner.
+struct GraphNode {
+    node: ros2_client::Node,
+    ends: Endpoints,
+    services: Services,
+    lifecycle_services: lifecycle::LifecycleServices,
+    logger: ros2_client::NodeLoggingHandle,
+    spinner: ros2_client::Spinner,
+}
+
+impl GraphNode {
+    /// Creates the node in `ctx` (its parameter requests sent on `ops_tx`), then its
+    /// endpoints and services (parameter requests are served from then on), its `/rosout`
+    /// handle and its spinner.
+    fn create(
+        ctx: &ros2_client::Context,
+        cfg: &NodeConfig,
+        core: &NodeCore,
+        ops_tx: std::sync::mpsc::SyncSender<Operator>,
+    ) -> Result<Self, NodeRunError> {
+        let started = Arc::new(AtomicBool::new(false));
+        let mut node = ctx
+            .new_node(
+                dds::node_name(&cfg.namespace, &cfg.name)?,
+                params::node_options(core, ops_tx, started.clone()),
+            )
+            .map_err(|e| DdsError::Create {
+                what: format!("node {}/{}", cfg.namespace, cfg.name),
+                message: format!("{e:?}"),
+            })?;
+        let ends = Endpoints::create(&mut node, cfg)?;
+        let services = Services::create(&mut node)?;
+        let lifecycle_services = lifecycle::LifecycleServices::create(&mut node)?;
+        started.store(true, Ordering::Release);
+        let logger = node.logging_handle();
+        let spinner = node.spinner().map_err(|e| DdsError::Create {
+            what: "spinner".into(),
+            message: format!("{e:?}"),
+        })?;
+        Ok(Self {
+            node,
+            ends,
+            services,
+            lifecycle_services,
+            logger,
+            spinner,
+        })
+    }
+}
+
+/// The lifecycle state the node starts in: active with `[node] autostart`, else inactive.
+fn initial_lifecycle(cfg: &NodeConfig) -> lifecycle::Lifecycle {
+    lifecycle::Lifecycle::new(if cfg.autostart {
+        lifecycle::Primary::Active
+    } else {
+        lifecycle::Primary::Inactive
+    })
+}
+
+/// The I/O thread's tokio runtime (one worker).
+fn io_runtime() -> Result<tokio::runtime::Runtime, NodeRunError> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .thread_name("crossym-io")
+        .build()
+        .map_err(|e| NodeRunError::Runtime {
+            message: e.to_string(),
+        })
+}
+
+/// The node's log (console and `/rosout` through `logger`), opened with the startup
+/// summary and the SROS2 line: secured as which enclave, off, or the permissive
+/// fallback's warning.
+fn open_log(
+    core: &NodeCore,
+    gate: &InputGate,
+    settings: &DdsSettings,
+    record: Option<&Path>,
+    logger: ros2_client::NodeLoggingHandle,
+) -> Result<NodeLog, NodeRunError> {
+    let cfg = core.config();
+    let mut log = NodeLog::new(
+        &cfg.name,
+        Some(logger),
+        cfg.log_level,
+        Duration::from_secs(1),
+    );
+    for line in startup_summary(core, gate, settings, record) {
+        log.log(Severity::Info, &line);
+    }
+    let security = settings.security_mode()?;
+    let severity = match security.warning() {
+        Some(_) => Severity::Warn,
+        None => Severity::Info,
+    };
+    log.log(severity, &security.describe());
+    Ok(log)
+}
+
+/// Hands the control thread its state through the event-loop hook (`setup_tx`) and waits
+/// until the participant's event loop runs it; returns that thread.
+fn start_control(
+    core: NodeCore,
+    ends: Endpoints,
+    links: Links,
+    setup_tx: &std::sync::mpsc::SyncSender<ControlThread>,
+    shared: &LoopThread,
+) -> Result<libc::pthread_t, NodeRunError> {
     let control = ControlThread::new(core, ends, links).map_err(|e| NodeRunError::Runtime {
         message: format!("control thread: {e}"),
     })?;
@@ -154,11 +261,17 @@ pub fn run(
                 message: "the DDS event loop did not start within 5 s".into(),
             })?;
     shared.wake();
-    // Held until the node stops (the kernel drops the CPU latency request on close).
-    let RealtimeHold {
-        cpu_latency: _cpu_latency,
-        idle_poll,
-    } = match &cfg.realtime {
+    Ok(control_thread)
+}
+
+/// Applies `[node] realtime` to the control thread (each outcome logged, a refusal as a
+/// warning); what it returns is held until the node stops.
+fn hold_realtime(
+    cfg: &NodeConfig,
+    control_thread: libc::pthread_t,
+    log: &mut NodeLog,
+) -> RealtimeHold {
+    match &cfg.realtime {
         Some(rt) => apply_realtime(rt, control_thread, |o| {
             let severity = if o.is_refused() {
                 Severity::Warn
@@ -168,35 +281,7 @@ pub fn run(
             log.log(severity, &o.to_string());
         }),
         None => RealtimeHold::default(),
-    };
-
-    let mut io = IoSide {
-        gate,
-        watch: StatusWatch::with_names(names.clone()),
-        names,
-        from_control,
-        log,
-        ops: ops_rx,
-        to_control,
-        services,
-        paused: false,
-        lifecycle: lifecycle::Lifecycle::new(if cfg.autostart {
-            lifecycle::Primary::Active
-        } else {
-            lifecycle::Primary::Inactive
-        }),
-        lifecycle_services,
-        command_subscribers,
-    };
-    let matched = || command_pub.subscription_count(&node);
-    runtime.block_on(io.serve(spinner, &stop, &matched));
-    stop.store(true, Ordering::Release);
-    shared.wake();
-    let stats = finish(&done_rx, recorder, io);
-    drop(idle_poll);
-    drop(node);
-    runtime.shutdown_timeout(Duration::from_millis(200));
-    stats
+    }
 }
 
 /// Waits for the control thread's statistics (sent after the final command was
@@ -261,54 +346,16 @@ fn startup_summary(
     record: Option<&Path>,
 ) -> Vec<String> {
     let cfg = core.config();
-    let kin = core.kinematics();
-    let topic = |t: &str| dds::expand_topic(t, &cfg.namespace, &cfg.name);
-    let chains: Vec<String> = kin
-        .chains()
-        .iter()
-        .map(|c| format!("{} ({} joints, {} → {})", c.name, c.dof(), c.base, c.tip))
-        .collect();
     let mut lines = vec![
-        format!(
-            "robot `{}`: {} controlled joints in {}",
-            kin.robot,
-            kin.dof(),
-            chains.join(", ")
-        ),
+        robot_line(core),
         format!(
             "policy {}; conditions accepted: {}",
             cfg.policy
                 .as_ref()
                 .map_or("(none)".into(), |p| p.display().to_string()),
-            match (gate.domain(), gate.checks_feasibility()) {
-                (_, true) => "any whose lifted flows are feasible from the current joint state \
-                              (canonicalised policy)"
-                    .to_string(),
-                (Some(d), false) => format!("the trained box, {}", d.describe()),
-                (None, false) if core.policy().task_head().is_some() => {
-                    "any valid (task-space head of the whole group: equivariant in task space \
-                     wherever the arms reach the drawing)"
-                        .to_string()
-                }
-                (None, false) => {
-                    "any valid (accept_untrained_conditions, or no training record)".to_string()
-                }
-            }
+            conditions_accepted(core, gate)
         ),
-        format!(
-            "topics: in {} (JointState, best effort, keep last 5), {} (SymmetryCondition, reliable, keep last 10); out {} ({}, reliable, keep last 10), {} (Status every {} s, reliable, keep last 10); DDS domain {}, ROS 2 {} graph formats",
-            topic(&cfg.topics.joint_states),
-            topic(&cfg.topics.symmetry_condition),
-            topic(&cfg.topics.command),
-            match cfg.output {
-                OutputMode::Trajectory => "JointTrajectory",
-                _ => "Float64MultiArray",
-            },
-            topic(&cfg.topics.status),
-            cfg.status_period_s,
-            settings.domain_id,
-            settings.distro
-        ),
+        topics_line(cfg, settings),
         format!(
             "output {} at {:.0} Hz (period {} s, trigger {}), joint states stale after {} s",
             format!("{:?}", cfg.output).to_lowercase(),
@@ -327,10 +374,82 @@ fn startup_summary(
                 .map_or("unbounded".into(), |d| format!("≥ {d} m"))
         ),
     ];
+    lines.extend(task_pose_lines(cfg));
+    lines.push(singularity_line(cfg));
+    lines.push(services_line(cfg));
+    lines.push(lifecycle_line(cfg));
+    if let Some(dir) = record {
+        lines.push(format!("recording to {}", dir.display()));
+    }
+    lines
+}
+
+/// A topic name of the node's configuration, expanded (`~/…` in the node's namespace).
+fn node_topic(cfg: &NodeConfig, t: &str) -> String {
+    dds::expand_topic(t, &cfg.namespace, &cfg.name)
+}
+
+/// The robot and its kinematic chains.
+fn robot_line(core: &NodeCore) -> String {
+    let kin = core.kinematics();
+    let chains: Vec<String> = kin
+        .chains()
+        .iter()
+        .map(|c| format!("{} ({} joints, {} → {})", c.name, c.dof(), c.base, c.tip))
+        .collect();
+    format!(
+        "robot `{}`: {} controlled joints in {}",
+        kin.robot,
+        kin.dof(),
+        chains.join(", ")
+    )
+}
+
+/// Which symmetry conditions the gate accepts.
+fn conditions_accepted(core: &NodeCore, gate: &InputGate) -> String {
+    match (gate.domain(), gate.checks_feasibility()) {
+        (_, true) => "any whose lifted flows are feasible from the current joint state \
+                      (canonicalised policy)"
+            .to_string(),
+        (Some(d), false) => format!("the trained box, {}", d.describe()),
+        (None, false) if core.policy().task_head().is_some() => {
+            "any valid (task-space head of the whole group: equivariant in task space \
+             wherever the arms reach the drawing)"
+                .to_string()
+        }
+        (None, false) => {
+            "any valid (accept_untrained_conditions, or no training record)".to_string()
+        }
+    }
+}
+
+/// The topics in and out with their QoS, the DDS domain and the ROS 2 distribution.
+fn topics_line(cfg: &NodeConfig, settings: &DdsSettings) -> String {
+    let topic = |t: &str| node_topic(cfg, t);
+    format!(
+        "topics: in {} (JointState, best effort, keep last 5), {} (SymmetryCondition, reliable, keep last 10); out {} ({}, reliable, keep last 10), {} (Status every {} s, reliable, keep last 10); DDS domain {}, ROS 2 {} graph formats",
+        topic(&cfg.topics.joint_states),
+        topic(&cfg.topics.symmetry_condition),
+        topic(&cfg.topics.command),
+        match cfg.output {
+            OutputMode::Trajectory => "JointTrajectory",
+            _ => "Float64MultiArray",
+        },
+        topic(&cfg.topics.status),
+        cfg.status_period_s,
+        settings.domain_id,
+        settings.distro
+    )
+}
+
+/// Conditions from an observed object's pose (with `[node.task_pose]`), and its frames
+/// through /tf.
+fn task_pose_lines(cfg: &NodeConfig) -> Vec<String> {
+    let mut lines = Vec::new();
     if let Some(p) = &cfg.task_pose {
         lines.push(format!(
             "conditions also from the object pose on {} (PoseStamped in `{}`, best effort; θ about {:?}, σ by the side of the mirror plane of {:?} on the object, λ = {}; the last source wins)",
-            topic(&p.topic),
+            node_topic(cfg, &p.topic),
             p.frame,
             p.axis,
             p.side_point,
@@ -343,34 +462,47 @@ fn startup_summary(
             ));
         }
     }
+    lines
+}
+
+/// The singularity band, on or off.
+fn singularity_line(cfg: &NodeConfig) -> String {
     let band = &cfg.singularity;
-    lines.push(if band.enabled {
+    if band.enabled {
         format!(
             "singularity band: commands toward a singular posture slow down from condition number {} and stop at {} ([node.singularity])",
             band.slowdown, band.stop
         )
     } else {
         "singularity band off ([node.singularity] enabled = false)".to_string()
-    });
+    }
+}
+
+/// The operator's services and the runtime-settable parameters.
+fn services_line(cfg: &NodeConfig) -> String {
     let services: Vec<String> = services::NAMES
         .iter()
-        .map(|(n, t)| format!("{} ({t})", topic(&format!("~/{n}"))))
+        .map(|(n, t)| format!("{} ({t})", node_topic(cfg, &format!("~/{n}"))))
         .collect();
     let settable: Vec<String> = params::SETTABLE
         .iter()
         .map(|(n, t)| format!("{n} ({t})"))
         .collect();
-    lines.push(format!(
+    format!(
         "services: {}; settable parameters (ros2 param set, crossym param set): {}; velocity_scale {}",
         services.join(", "),
         settable.join(", "),
         cfg.velocity_scale
-    ));
+    )
+}
+
+/// The lifecycle state at start, its services and transition events.
+fn lifecycle_line(cfg: &NodeConfig) -> String {
     let lifecycle: Vec<String> = lifecycle::NAMES
         .iter()
-        .map(|(n, _)| topic(&format!("~/{n}")))
+        .map(|(n, _)| node_topic(cfg, &format!("~/{n}")))
         .collect();
-    lines.push(format!(
+    format!(
         "lifecycle: {} ({}); services {}, events on {}",
         if cfg.autostart { "active" } else { "inactive" },
         if cfg.autostart {
@@ -379,10 +511,6 @@ fn startup_summary(
             "[node] autostart = false: no command until `activate` (ros2 lifecycle set <node> activate)"
         },
         lifecycle.join(", "),
-        topic("~/transition_event")
-    ));
-    if let Some(dir) = record {
-        lines.push(format!("recording to {}", dir.display()));
-    }
-    lines
+        node_topic(cfg, "~/transition_event")
+    )
 }

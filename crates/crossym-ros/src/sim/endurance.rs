@@ -14,9 +14,11 @@
 //! **posture drift** `‖N (q − r)‖` — the part of the distance to the rest posture `r` the
 //! task cannot see, `N = I − J⁺J` (the null-space coordinates' distance from rest).
 
-use crossym_control::{NodeCore, OutputMode, StatusCode};
+use crossym_control::{NodeCore, OutputMode, StatusCode, TickReport};
 use crossym_io::msg;
-use crossym_math::kinematics::{DampedPinv, PinvStatus};
+use crossym_math::kinematics::{
+    DampedPinv, JointLimits, Kinematics, KinematicsWorkspace, PinvStatus,
+};
 use crossym_math::symmetry::compose::Condition;
 use nalgebra::DMatrix;
 
@@ -115,82 +117,27 @@ impl std::fmt::Display for EnduranceReport {
 pub fn run(core: &mut NodeCore, start: &[f64], settings: &EnduranceSettings) -> EnduranceReport {
     let names = core.joint_names().to_vec();
     let limits = core.limits().to_vec();
-    let kin = core.kinematics().clone();
-    let (n, dt) = (kin.dof(), core.config().period_s);
+    let (n, dt) = (core.kinematics().dof(), core.config().period_s);
     let mode = core.config().output;
-    let mut kws = kin.workspace();
-    let mut jp = DMatrix::<f64>::zeros(n, kin.task_dim());
+    let mut probe = DriftProbe::new(core.kinematics().clone());
     let mut q = start.to_vec();
     let mut cmd = core.command();
     let ticks = (settings.duration_s / dt).round() as u64;
     let per_condition = ((settings.condition_period_s / dt).round() as u64).max(1);
-    let mut r = EnduranceReport {
-        ticks: 0,
-        bound_ticks: 0,
-        other_status_ticks: 0,
-        other_status: Default::default(),
-        violation_ticks: 0,
-        conditions_accepted: 0,
-        conditions_rejected: 0,
-        last_rejection: None,
-        min_margin: f64::INFINITY,
-        min_margin_joint: String::new(),
-        max_drift: 0.0,
-        final_drift: 0.0,
-        drift_by_tenth: vec![0.0; 10],
-        max_excursion: vec![0.0; n],
-        max_condition: 1.0,
-    };
+    let mut r = EnduranceReport::empty(n);
     let mut tenth_count = [0u64; 10];
-    let mut nq = DMatrix::<f64>::zeros(n, n);
     for k in 0..ticks {
         let t = k as f64 * dt;
         if k % per_condition == 0 && !settings.conditions.is_empty() {
             let s = settings.conditions[(k / per_condition) as usize % settings.conditions.len()];
-            let m = msg::SymmetryCondition {
-                theta: s.theta,
-                scale: s.scale,
-                reflection: s.reflection,
-                ..Default::default()
-            };
-            match core.on_condition(&m) {
-                Ok(()) => r.conditions_accepted += 1,
-                Err(e) => {
-                    r.conditions_rejected += 1;
-                    r.last_rejection = Some(format!("{e:?}"));
-                }
-            }
+            r.send_condition(core, s);
         }
-        let js = msg::JointState {
-            header: msg::Header {
-                stamp: msg::Time::from_secs_f64(t),
-                frame_id: String::new(),
-            },
-            name: names.clone(),
-            position: q.clone(),
-            velocity: Vec::new(),
-            effort: Vec::new(),
-        };
         // The robot's own state is always well-formed: a rejection would be a bug here.
-        if core.on_joint_state(&js, t).is_err() {
+        if core.on_joint_state(&joint_state(&names, &q, t), t).is_err() {
             r.other_status_ticks += 1;
         }
         let rep = core.tick(t, &mut cmd);
-        r.ticks += 1;
-        let kappa = core.singularity().condition;
-        if kappa.is_finite() || kappa == f64::INFINITY {
-            r.max_condition = r.max_condition.max(kappa);
-        }
-        match rep.code {
-            StatusCode::NoWarning | StatusCode::JointBound => {}
-            code => {
-                r.other_status_ticks += 1;
-                *r.other_status.entry(format!("{code:?}")).or_default() += 1;
-            }
-        }
-        if rep.active_constraints > 0 {
-            r.bound_ticks += 1;
-        }
+        r.count_tick(&rep, core.singularity().condition);
         if rep.publish {
             match mode {
                 OutputMode::Velocity => {
@@ -201,37 +148,8 @@ pub fn run(core: &mut NodeCore, start: &[f64], settings: &EnduranceSettings) -> 
                 _ => q.copy_from_slice(&cmd.positions),
             }
         }
-        let mut outside = false;
-        for (j, (x, l)) in q.iter().zip(&limits).enumerate() {
-            if !(l.lower.is_finite() && l.upper.is_finite()) {
-                continue;
-            }
-            let margin = (x - l.lower).min(l.upper - x) / (l.upper - l.lower);
-            outside |= margin < 0.0;
-            if margin < r.min_margin {
-                r.min_margin = margin;
-                r.min_margin_joint.clone_from(&names[j]);
-            }
-        }
-        if outside {
-            r.violation_ticks += 1;
-        }
-        for ((e, x), rest) in r.max_excursion.iter_mut().zip(&q).zip(&settings.rest) {
-            *e = e.max((x - rest).abs());
-        }
-        // Drift: ‖(I − J⁺J)(q − r)‖ with the robot's pseudo-inverse.
-        kin.jacobian(&q, &mut kws);
-        let drift = if kin.factor(&mut kws).status == PinvStatus::Singular {
-            f64::NAN
-        } else {
-            kin.pinv().matrix(&mut kws.pinv, &mut jp);
-            DampedPinv::nullspace_projector(&kws.jac, &jp, &mut nq);
-            let d = nalgebra::DVector::from_iterator(
-                n,
-                q.iter().zip(&settings.rest).map(|(a, b)| a - b),
-            );
-            (&nq * d).norm()
-        };
+        r.measure_posture(&q, &limits, &names, &settings.rest);
+        let drift = probe.drift(&q, &settings.rest);
         if drift.is_finite() {
             r.max_drift = r.max_drift.max(drift);
             r.final_drift = drift;
@@ -244,4 +162,141 @@ pub fn run(core: &mut NodeCore, start: &[f64], settings: &EnduranceSettings) -> 
         *d /= c.max(1) as f64;
     }
     r
+}
+
+/// The robot's joint state `q` at simulated time `t`.
+fn joint_state(names: &[String], q: &[f64], t: f64) -> msg::JointState {
+    msg::JointState {
+        header: msg::Header {
+            stamp: msg::Time::from_secs_f64(t),
+            frame_id: String::new(),
+        },
+        name: names.to_vec(),
+        position: q.to_vec(),
+        velocity: Vec::new(),
+        effort: Vec::new(),
+    }
+}
+
+impl EnduranceReport {
+    /// The report of a run not started, for `n` joints.
+    fn empty(n: usize) -> Self {
+        Self {
+            ticks: 0,
+            bound_ticks: 0,
+            other_status_ticks: 0,
+            other_status: Default::default(),
+            violation_ticks: 0,
+            conditions_accepted: 0,
+            conditions_rejected: 0,
+            last_rejection: None,
+            min_margin: f64::INFINITY,
+            min_margin_joint: String::new(),
+            max_drift: 0.0,
+            final_drift: 0.0,
+            drift_by_tenth: vec![0.0; 10],
+            max_excursion: vec![0.0; n],
+            max_condition: 1.0,
+        }
+    }
+
+    /// Sends condition `s` to `core`, counting it accepted or rejected.
+    fn send_condition(&mut self, core: &mut NodeCore, s: Condition) {
+        let m = msg::SymmetryCondition {
+            theta: s.theta,
+            scale: s.scale,
+            reflection: s.reflection,
+            ..Default::default()
+        };
+        match core.on_condition(&m) {
+            Ok(()) => self.conditions_accepted += 1,
+            Err(e) => {
+                self.conditions_rejected += 1;
+                self.last_rejection = Some(format!("{e:?}"));
+            }
+        }
+    }
+
+    /// Counts a tick: its condition number `kappa`, its status, a joint on a bound.
+    fn count_tick(&mut self, rep: &TickReport, kappa: f64) {
+        self.ticks += 1;
+        if kappa.is_finite() || kappa == f64::INFINITY {
+            self.max_condition = self.max_condition.max(kappa);
+        }
+        match rep.code {
+            StatusCode::NoWarning | StatusCode::JointBound => {}
+            code => {
+                self.other_status_ticks += 1;
+                *self.other_status.entry(format!("{code:?}")).or_default() += 1;
+            }
+        }
+        if rep.active_constraints > 0 {
+            self.bound_ticks += 1;
+        }
+    }
+
+    /// The posture `q` after the robot moved: margins to the limits, a joint outside them,
+    /// the excursions from `rest`.
+    fn measure_posture(
+        &mut self,
+        q: &[f64],
+        limits: &[JointLimits],
+        names: &[String],
+        rest: &[f64],
+    ) {
+        let mut outside = false;
+        for (j, (x, l)) in q.iter().zip(limits).enumerate() {
+            if !(l.lower.is_finite() && l.upper.is_finite()) {
+                continue;
+            }
+            let margin = (x - l.lower).min(l.upper - x) / (l.upper - l.lower);
+            outside |= margin < 0.0;
+            if margin < self.min_margin {
+                self.min_margin = margin;
+                self.min_margin_joint.clone_from(&names[j]);
+            }
+        }
+        if outside {
+            self.violation_ticks += 1;
+        }
+        for ((e, x), rest) in self.max_excursion.iter_mut().zip(q).zip(rest) {
+            *e = e.max((x - rest).abs());
+        }
+    }
+}
+
+/// The posture drift `‖(I − J⁺J)(q − r)‖` with the robot's pseudo-inverse, and the
+/// workspaces it is computed in.
+struct DriftProbe {
+    kin: Kinematics,
+    kws: KinematicsWorkspace,
+    jp: DMatrix<f64>,
+    nq: DMatrix<f64>,
+}
+
+impl DriftProbe {
+    fn new(kin: Kinematics) -> Self {
+        let n = kin.dof();
+        Self {
+            kws: kin.workspace(),
+            jp: DMatrix::<f64>::zeros(n, kin.task_dim()),
+            nq: DMatrix::<f64>::zeros(n, n),
+            kin,
+        }
+    }
+
+    /// The drift of `q` from `rest` (NaN where the Jacobian is singular).
+    fn drift(&mut self, q: &[f64], rest: &[f64]) -> f64 {
+        let kin = &self.kin;
+        kin.jacobian(q, &mut self.kws);
+        if kin.factor(&mut self.kws).status == PinvStatus::Singular {
+            f64::NAN
+        } else {
+            kin.pinv().matrix(&mut self.kws.pinv, &mut self.jp);
+            DampedPinv::nullspace_projector(&self.kws.jac, &self.jp, &mut self.nq);
+            let d =
+                nalgebra::DVector::from_iterator(kin.dof(), q.iter().zip(rest).map(|(a, b)| a - b));
+            (&self.nq * d).norm()
+        }
+    }
 }

@@ -195,13 +195,21 @@ impl MujocoConfig {
             .model_dir
             .as_ref()
             .ok_or("model_dir is not set: point it at your RB-Y1 SDK's models/rby1a/mujoco")?;
+        let mut a = self.robot_args(run, model_dir);
+        self.push_behaviour_args(&mut a);
+        push_run_args(run, &mut a);
+        Ok(a)
+    }
+
+    /// The model, the robot, its start and limits, the hardware's motion settings.
+    fn robot_args(&self, run: &PhysicsRun<'_>, model_dir: &Path) -> Vec<String> {
         let list = |v: &[f64]| {
             v.iter()
                 .map(|x| format!("{x:?}"))
                 .collect::<Vec<_>>()
                 .join(",")
         };
-        let mut a = vec![
+        vec![
             "--model-dir".to_string(),
             run.base_dir.join(model_dir).display().to_string(),
             "--version".into(),
@@ -229,7 +237,13 @@ impl MujocoConfig {
             format!("{:?}", self.hw_min_time_s),
             "--target-filter-hz".into(),
             format!("{:?}", self.target_filter_hz),
-        ];
+        ]
+    }
+
+    /// The simulated robot's behaviour: gravity compensation, force limits, open-loop
+    /// control, and the planted joint freezes, holds, driver restarts and controller
+    /// switch-offs.
+    fn push_behaviour_args(&self, a: &mut Vec<String>) {
         if self.gravity_compensation {
             a.push("--gravity-compensation".into());
         }
@@ -269,32 +283,34 @@ impl MujocoConfig {
                 format!("{:?}", self.controller_off_s),
             ]);
         }
-        if let Some(s) = run.summary {
-            a.extend(["--summary".into(), s.display().to_string()]);
+    }
+}
+
+/// This run's summary file and sensor fault.
+fn push_run_args(run: &PhysicsRun<'_>, a: &mut Vec<String>) {
+    if let Some(s) = run.summary {
+        a.extend(["--summary".into(), s.display().to_string()]);
+    }
+    if let Some(kind) = run.fault {
+        use super::fault::FaultKind;
+        let k = match kind {
+            FaultKind::Frozen => "frozen",
+            FaultKind::Silent => "silent",
+            FaultKind::NanPosition => "nan",
+            FaultKind::MissingJoint => "missing",
+        };
+        a.extend(["--sensor-fault".into(), k.into()]);
+        a.extend([
+            "--sensor-fault-after-s".into(),
+            format!("{:?}", run.fault_after_s),
+        ]);
+        if let Some(d) = run.fault_duration_s {
+            a.extend(["--sensor-fault-s".into(), format!("{d:?}")]);
         }
-        if let Some(kind) = run.fault {
-            use super::fault::FaultKind;
-            let k = match kind {
-                FaultKind::Frozen => "frozen",
-                FaultKind::Silent => "silent",
-                FaultKind::NanPosition => "nan",
-                FaultKind::MissingJoint => "missing",
-            };
-            a.extend(["--sensor-fault".into(), k.into()]);
-            a.extend([
-                "--sensor-fault-after-s".into(),
-                format!("{:?}", run.fault_after_s),
-            ]);
-            if let Some(d) = run.fault_duration_s {
-                a.extend(["--sensor-fault-s".into(), format!("{d:?}")]);
-            }
-            if let (Some(j), FaultKind::NanPosition | FaultKind::MissingJoint) =
-                (run.fault_joint, kind)
-            {
-                a.extend(["--sensor-fault-joint".into(), j.into()]);
-            }
+        if let (Some(j), FaultKind::NanPosition | FaultKind::MissingJoint) = (run.fault_joint, kind)
+        {
+            a.extend(["--sensor-fault-joint".into(), j.into()]);
         }
-        Ok(a)
     }
 }
 

@@ -52,6 +52,97 @@ impl Cmd {
     }
 }
 
+/// The mock hardware's node on the DDS graph: joint states out, resets and commands in
+/// (fields in reverse order of creation: dropped the endpoints first, then the node).
+struct MockHwNode {
+    cmd_sub: Cmd,
+    reset_sub: ros2_client::Subscription<msg::Float64MultiArray>,
+    js_pub: ros2_client::Publisher<msg::JointState>,
+    _node: ros2_client::Node,
+}
+
+impl MockHwNode {
+    /// Creates the node `cfg.name` in `ctx` with its endpoints (commands of `mode` on
+    /// `command_topic`).
+    fn create(
+        ctx: &ros2_client::Context,
+        cfg: &MockHwConfig,
+        command_topic: &str,
+        mode: OutputMode,
+    ) -> Result<Self, NodeRunError> {
+        let mut node = ctx
+            .new_node(
+                dds::node_name("/", &cfg.name)?,
+                NodeOptions::new().enable_rosout(true),
+            )
+            .map_err(|e| DdsError::Create {
+                what: format!("node {}", cfg.name),
+                message: format!("{e:?}"),
+            })?;
+        let js_pub = dds::publisher::<msg::JointState>(
+            &mut node,
+            &cfg.joint_states_topic,
+            dds::qos_reliable(10),
+        )?;
+        let reset_sub = dds::subscription::<msg::Float64MultiArray>(
+            &mut node,
+            &cfg.reset_topic,
+            dds::qos_reliable(10),
+        )?;
+        let cmd_sub = match mode {
+            OutputMode::Velocity | OutputMode::Position => Cmd::Array(dds::subscription(
+                &mut node,
+                command_topic,
+                dds::qos_reliable(10),
+            )?),
+            OutputMode::Trajectory => Cmd::Traj(dds::subscription(
+                &mut node,
+                command_topic,
+                dds::qos_reliable(10),
+            )?),
+        };
+        Ok(Self {
+            cmd_sub,
+            reset_sub,
+            js_pub,
+            _node: node,
+        })
+    }
+
+    /// One timer tick: the waiting commands and resets to `hw`, a step of `dt`, the joint
+    /// state published (`names`, `positions`: buffers kept between ticks).
+    fn step(
+        &self,
+        hw: &mut MockHardware,
+        dt: f64,
+        names: &mut Vec<String>,
+        positions: &mut Vec<f64>,
+    ) {
+        self.cmd_sub.drain_into(hw);
+        while let Ok(Some((m, _))) = self.reset_sub.take() {
+            if !hw.reset(&m.data) {
+                eprintln!("mock_hw: ignored reset with {} values", m.data.len());
+            }
+        }
+        hw.step(dt);
+        if hw.joint_state(names, positions) {
+            let m = msg::JointState {
+                header: msg::Header {
+                    stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
+                    frame_id: String::new(),
+                },
+                name: names.clone(),
+                position: positions.clone(),
+                velocity: Vec::new(),
+                effort: Vec::new(),
+            };
+            if let Err(e) = self.js_pub.publish(m) {
+                eprintln!("mock_hw: publish failed: {e:?}");
+            }
+        }
+    }
+}
+
 /// Runs `hw` over DDS until SIGINT/SIGTERM; writes the summary to `summary_path` (JSON).
 pub fn run(
     mut hw: MockHardware,
@@ -65,37 +156,7 @@ pub fn run(
     if settings.security.enable {
         eprintln!("mock_hw: {}", settings.security_mode()?.describe());
     }
-    let mut node = ctx
-        .new_node(
-            dds::node_name("/", &cfg.name)?,
-            NodeOptions::new().enable_rosout(true),
-        )
-        .map_err(|e| DdsError::Create {
-            what: format!("node {}", cfg.name),
-            message: format!("{e:?}"),
-        })?;
-    let js_pub = dds::publisher::<msg::JointState>(
-        &mut node,
-        &cfg.joint_states_topic,
-        dds::qos_reliable(10),
-    )?;
-    let reset_sub = dds::subscription::<msg::Float64MultiArray>(
-        &mut node,
-        &cfg.reset_topic,
-        dds::qos_reliable(10),
-    )?;
-    let cmd_sub = match mode {
-        OutputMode::Velocity | OutputMode::Position => Cmd::Array(dds::subscription(
-            &mut node,
-            command_topic,
-            dds::qos_reliable(10),
-        )?),
-        OutputMode::Trajectory => Cmd::Traj(dds::subscription(
-            &mut node,
-            command_topic,
-            dds::qos_reliable(10),
-        )?),
-    };
+    let dds_node = MockHwNode::create(&ctx, cfg, command_topic, mode)?;
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -127,28 +188,7 @@ pub fn run(
                 at = timer.tick() => {
                     first_tick.get_or_insert(at);
                     last_tick = Some(at);
-                    cmd_sub.drain_into(&mut hw);
-                    while let Ok(Some((m, _))) = reset_sub.take() {
-                        if !hw.reset(&m.data) {
-                            eprintln!("mock_hw: ignored reset with {} values", m.data.len());
-                        }
-                    }
-                    hw.step(dt);
-                    if hw.joint_state(&mut names, &mut positions) {
-                        let m = msg::JointState {
-                            header: msg::Header {
-                                stamp: msg::Time::from_secs_f64(dds::wall_time_s()),
-                                frame_id: String::new(),
-                            },
-                            name: names.clone(),
-                            position: positions.clone(),
-                            velocity: Vec::new(),
-                            effort: Vec::new(),
-                        };
-                        if let Err(e) = js_pub.publish(m) {
-                            eprintln!("mock_hw: publish failed: {e:?}");
-                        }
-                    }
+                    dds_node.step(&mut hw, dt, &mut names, &mut positions);
                 }
             }
         }
@@ -159,6 +199,16 @@ pub fn run(
         let periods = ((last - first).as_secs_f64() / dt).round() as u64 + 1;
         summary.missed_steps = periods.saturating_sub(summary.steps);
     }
+    report_stop(&hw, &summary, summary_path)?;
+    Ok(summary)
+}
+
+/// The stop line, and the summary written to `summary_path` (JSON).
+fn report_stop(
+    hw: &MockHardware,
+    summary: &MockHwSummary,
+    summary_path: Option<&Path>,
+) -> Result<(), NodeRunError> {
     eprintln!(
         "mock_hw: stopped after {:.2} s: {} commands, {} limit violations, {} faulty joint states, {} timer periods missed",
         hw.time_s(),
@@ -168,10 +218,10 @@ pub fn run(
         summary.missed_steps
     );
     if let Some(p) = summary_path {
-        let text = serde_json::to_string_pretty(&summary).unwrap_or_default();
+        let text = serde_json::to_string_pretty(summary).unwrap_or_default();
         std::fs::write(p, text).map_err(|e| NodeRunError::Runtime {
             message: format!("writing {}: {e}", p.display()),
         })?;
     }
-    Ok(summary)
+    Ok(())
 }

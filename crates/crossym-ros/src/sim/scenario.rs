@@ -129,6 +129,47 @@ struct Endpoints {
     _node: ros2_client::Node,
 }
 
+/// Waits until both joint states and a status arrived (within `discovery_timeout`); returns
+/// the map of joint-state names onto the controlled order (from the first joint state) and
+/// the last status code.
+fn first_messages(
+    js_sub: &ros2_client::Subscription<msg::JointState>,
+    status_sub: &ros2_client::Subscription<msg::Status>,
+    topics: &ScenarioTopics,
+    joint_names: &[String],
+    discovery_timeout: Duration,
+) -> Result<(Vec<usize>, i8), ScenarioError> {
+    let mut map: Option<Vec<usize>> = None;
+    let deadline = Instant::now() + discovery_timeout;
+    let (mut have_js, mut have_status) = (false, false);
+    let mut last_code = 0i8;
+    while !(have_js && have_status) {
+        if Instant::now() > deadline {
+            return Err(ScenarioError::Timeout {
+                what: format!(
+                    "within {discovery_timeout:?}: joint states on {} {}, status on {} {}",
+                    topics.joint_states,
+                    if have_js { "seen" } else { "never seen" },
+                    topics.status,
+                    if have_status { "seen" } else { "never seen" },
+                ),
+            });
+        }
+        while let Ok(Some((m, _))) = js_sub.take() {
+            have_js = true;
+            if map.is_none() {
+                map = Some(index_map(&m.name, joint_names)?);
+            }
+        }
+        while let Ok(Some((s, _))) = status_sub.take() {
+            have_status = true;
+            last_code = s.code;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    Ok((map.expect("set when have_js"), last_code))
+}
+
 /// What one step recorded from the reset pose on: joint-state times (s since the reset
 /// pose was first reported) and positions (controlled order), and the node's status.
 #[derive(Default)]
@@ -180,35 +221,8 @@ impl Endpoints {
         )?;
         let status_sub =
             dds::subscription::<msg::Status>(&mut node, &topics.status, dds::qos_reliable(100))?;
-        // Map joint-state names onto the controlled order once the first message arrives.
-        let mut map: Option<Vec<usize>> = None;
-        let deadline = Instant::now() + discovery_timeout;
-        let (mut have_js, mut have_status) = (false, false);
-        let mut last_code = 0i8;
-        while !(have_js && have_status) {
-            if Instant::now() > deadline {
-                return Err(ScenarioError::Timeout {
-                    what: format!(
-                        "within {discovery_timeout:?}: joint states on {} {}, status on {} {}",
-                        topics.joint_states,
-                        if have_js { "seen" } else { "never seen" },
-                        topics.status,
-                        if have_status { "seen" } else { "never seen" },
-                    ),
-                });
-            }
-            while let Ok(Some((m, _))) = js_sub.take() {
-                have_js = true;
-                if map.is_none() {
-                    map = Some(index_map(&m.name, joint_names)?);
-                }
-            }
-            while let Ok(Some((s, _))) = status_sub.take() {
-                have_status = true;
-                last_code = s.code;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
+        let (map, last_code) =
+            first_messages(&js_sub, &status_sub, topics, joint_names, discovery_timeout)?;
         // A node that starts inactive (`[node] autostart = false`, the RB-Y1 configs) runs
         // the policy once someone says so: the scenario activates it, as an operator would
         // with `ros2 lifecycle set <node> activate`.
@@ -227,7 +241,7 @@ impl Endpoints {
             reset_pub,
             js_sub,
             status_sub,
-            map: map.expect("set when have_js"),
+            map,
         })
     }
 

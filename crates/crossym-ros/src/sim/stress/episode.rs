@@ -7,7 +7,7 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
 use crossym_control::safety::BoundRules;
-use crossym_control::{NodeCore, OutputMode};
+use crossym_control::{Command, NodeCore, OutputMode};
 use crossym_io::msg;
 use crossym_math::kinematics::{JointLimits, NullSpaceTerm};
 use crossym_policy::AnyPolicy;
@@ -35,91 +35,149 @@ pub fn run_episode<R: BoundRules + Clone>(
         ..Default::default()
     };
     let plan = EpisodePlan::draw(geometries, mode, duration_s, &mut rng, &mut tally);
-    let mut core = node_core(&plan, seed, rules)?;
-    let tr = &plan.transport;
-    let (period, n) = (tr.period, plan.limits.len());
-    let (limits, accel) = (&plan.limits, &plan.accel);
-
-    let names = core.joint_names().to_vec();
-    let position_robot = mode != OutputMode::Velocity;
-    let mut robot = SimRobot::new(plan.start.clone(), names, limits, position_robot);
-    let mut pending_states: VecDeque<(i64, msg::JointState)> = VecDeque::new();
-    let mut burst = 0usize;
+    let mut ep = Episode::new(&plan, mode, seed, rng, tally, rules)?;
+    ep.robot.check_position(&mut ep.tally);
     let mut next_tick = plan.tick_phase_us;
     let mut next_state = 0i64;
     let mut t = 0i64;
-    let mut cmd = core.command();
-    let mut stream = CommandStream::new(n, period, position_robot);
-    robot.check_position(&mut tally);
-
     while t < plan.t_end_us {
-        let next_st = pending_states.front().map_or(i64::MAX, |p| p.0);
+        let next_st = ep.pending_states.front().map_or(i64::MAX, |p| p.0);
         let t_next = next_tick
             .min(next_state)
-            .min(robot.next_command_at())
+            .min(ep.robot.next_command_at())
             .min(next_st)
             .min(plan.t_end_us);
-        robot.integrate(t, t_next, &mut tally);
+        ep.robot.integrate(t, t_next, &mut ep.tally);
         t = t_next;
         if t >= plan.t_end_us {
             break;
         }
-        robot.receive(t, &mut tally);
-        // Joint states arriving at the node now.
-        while pending_states.front().is_some_and(|p| p.0 <= t) {
-            let (_, m) = pending_states.pop_front().expect("front");
-            let _ = core.on_joint_state(&m, t as f64 * 1e-6);
-        }
+        ep.robot.receive(t, &mut ep.tally);
+        ep.deliver_states(t);
         // The robot publishes a joint state.
         if t == next_state {
             next_state += plan.state_period_us;
-            if let Some(m) = robot.publish(t, plan.fault_at(t), tr.noise, &mut rng) {
-                let d = if tr.state_delay > 0.0 {
-                    rng.random_range(0.0..=tr.state_delay)
-                } else {
-                    0.0
-                };
-                let at = t + (d * 1e6) as i64;
-                let at = pending_states.back().map_or(at, |p| p.0.max(at));
-                pending_states.push_back((at, m));
-            }
+            ep.publish_state(t);
         }
         // The node ticks.
         if t == next_tick {
-            next_tick += tr.period_us;
-            let rep = core.tick(t as f64 * 1e-6, &mut cmd);
-            tally.ticks += 1;
-            if !rep.publish {
-                continue;
-            }
-            tally.commands += 1;
-            let data = cmd.data().to_vec();
-            let trace = |j: usize, a: f64, p: f64, v: f64| {
-                eprintln!(
-                    "seed {seed} t {:.3} joint {j}: accel {a:.3} > {:.3} (v {p:.4} -> {v:.4}) code {:?} q {:.4} state {:?}",
-                    t as f64 * 1e-6, accel[j], rep.code, robot.q[j], core.joint_state().map(|(q, t)| (q[j], t))
-                );
-            };
-            stream.check(&data, limits, accel, &mut tally, trace);
-            // Transport to the robot.
-            if tr.drop_p > 0.0 && burst < tr.max_burst && rng.random_bool(tr.drop_p) {
-                burst += 1;
-                continue;
-            }
-            burst = 0;
-            let lat = tr.lat_base
-                + if tr.lat_jitter > 0.0 {
-                    rng.random_range(0.0..=tr.lat_jitter)
-                } else {
-                    0.0
-                };
-            robot.send(t + (lat * 1e6) as i64, data);
+            next_tick += plan.transport.period_us;
+            ep.tick(t);
         }
     }
+    let mut tally = ep.tally;
     if !tally.clean() {
         tally.failing_seeds.push(seed);
     }
     Ok(tally)
+}
+
+/// An episode under way: the node core, the simulated robot, the joint states and commands
+/// between them, and the tally so far.
+struct Episode<'p, 'g, R: BoundRules> {
+    plan: &'p EpisodePlan<'g>,
+    seed: u64,
+    rng: StdRng,
+    tally: Tally,
+    core: NodeCore<AdversaryOutput, R>,
+    robot: SimRobot<'p>,
+    /// Joint states on their way to the node, with their arrival times (µs).
+    pending_states: VecDeque<(i64, msg::JointState)>,
+    /// Commands dropped in a row.
+    burst: usize,
+    cmd: Command,
+    stream: CommandStream,
+}
+
+impl<'p, 'g, R: BoundRules> Episode<'p, 'g, R> {
+    fn new(
+        plan: &'p EpisodePlan<'g>,
+        mode: OutputMode,
+        seed: u64,
+        rng: StdRng,
+        tally: Tally,
+        rules: R,
+    ) -> Result<Self, String> {
+        let core = node_core(plan, seed, rules)?;
+        let names = core.joint_names().to_vec();
+        let position_robot = mode != OutputMode::Velocity;
+        let robot = SimRobot::new(plan.start.clone(), names, &plan.limits, position_robot);
+        let cmd = core.command();
+        let stream = CommandStream::new(plan.limits.len(), plan.transport.period, position_robot);
+        Ok(Self {
+            plan,
+            seed,
+            rng,
+            tally,
+            core,
+            robot,
+            pending_states: VecDeque::new(),
+            burst: 0,
+            cmd,
+            stream,
+        })
+    }
+
+    /// Joint states arriving at the node at `t`.
+    fn deliver_states(&mut self, t: i64) {
+        while self.pending_states.front().is_some_and(|p| p.0 <= t) {
+            let (_, m) = self.pending_states.pop_front().expect("front");
+            let _ = self.core.on_joint_state(&m, t as f64 * 1e-6);
+        }
+    }
+
+    /// The robot publishes a joint state at `t` (unless a fault silences it), delayed in
+    /// transport but never overtaking the one before.
+    fn publish_state(&mut self, t: i64) {
+        let tr = &self.plan.transport;
+        let fault = self.plan.fault_at(t);
+        if let Some(m) = self.robot.publish(t, fault, tr.noise, &mut self.rng) {
+            let d = if tr.state_delay > 0.0 {
+                self.rng.random_range(0.0..=tr.state_delay)
+            } else {
+                0.0
+            };
+            let at = t + (d * 1e6) as i64;
+            let at = self.pending_states.back().map_or(at, |p| p.0.max(at));
+            self.pending_states.push_back((at, m));
+        }
+    }
+
+    /// The node ticks at `t`; a published command is checked, then sent to the robot (or
+    /// dropped in transport).
+    fn tick(&mut self, t: i64) {
+        let (tr, seed) = (&self.plan.transport, self.seed);
+        let (limits, accel) = (&self.plan.limits, &self.plan.accel);
+        let rep = self.core.tick(t as f64 * 1e-6, &mut self.cmd);
+        self.tally.ticks += 1;
+        if !rep.publish {
+            return;
+        }
+        self.tally.commands += 1;
+        let data = self.cmd.data().to_vec();
+        let (robot, core) = (&self.robot, &self.core);
+        let trace = |j: usize, a: f64, p: f64, v: f64| {
+            eprintln!(
+                "seed {seed} t {:.3} joint {j}: accel {a:.3} > {:.3} (v {p:.4} -> {v:.4}) code {:?} q {:.4} state {:?}",
+                t as f64 * 1e-6, accel[j], rep.code, robot.q[j], core.joint_state().map(|(q, t)| (q[j], t))
+            );
+        };
+        self.stream
+            .check(&data, limits, accel, &mut self.tally, trace);
+        // Transport to the robot.
+        if tr.drop_p > 0.0 && self.burst < tr.max_burst && self.rng.random_bool(tr.drop_p) {
+            self.burst += 1;
+            return;
+        }
+        self.burst = 0;
+        let lat = tr.lat_base
+            + if tr.lat_jitter > 0.0 {
+                self.rng.random_range(0.0..=tr.lat_jitter)
+            } else {
+                0.0
+            };
+        self.robot.send(t + (lat * 1e6) as i64, data);
+    }
 }
 
 /// The published command stream as the robot sees it: velocities (or, for a position
