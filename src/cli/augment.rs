@@ -24,8 +24,6 @@ pub struct AugmentArgs {
 
 /// `crossym augment`.
 pub fn run(a: &AugmentArgs) -> anyhow::Result<ExitCode> {
-    use crossym::data::augmentation::DropReason;
-    use crossym::policy::SubGroup;
     let cfg = Config::from_file(&a.config)?;
     let robot = cfg.load_robot()?;
     let p = pipeline(
@@ -54,61 +52,73 @@ pub fn run(a: &AugmentArgs) -> anyhow::Result<ExitCode> {
         ("train", &p.train, p.train_secs),
         ("test", &p.test, p.test_secs),
     ] {
-        for g in SubGroup::ALL {
-            let dropped: Vec<_> = set.dropped.iter().filter(|d| g.contains(&d.1)).collect();
-            println!(
-                "{:<6} {:<9} {:>6} {:>8} {:>9} {:>8}",
-                label,
-                g.label(),
-                set.subset(g).len(),
-                dropped.len(),
-                dropped
-                    .iter()
-                    .filter(|d| d.2 == DropReason::Singular)
-                    .count(),
-                dropped
-                    .iter()
-                    .filter(|d| matches!(d.2, DropReason::JointLimits { .. }))
-                    .count(),
-            );
-        }
-        println!(
-            "{label}: G_MRT augmentation took {secs:.2} s on {} threads",
-            rayon::current_num_threads()
-        );
-        // Dropped conditions, aggregated over demonstrations.
-        let mut by_cond: std::collections::BTreeMap<(i64, i64, i8, String), usize> =
-            Default::default();
-        for (_, c, r) in &set.dropped {
-            *by_cond
-                .entry((
-                    (c.theta.to_degrees() * 1e3).round() as i64,
-                    (c.scale * 1e3).round() as i64,
-                    c.reflection,
-                    match r {
-                        DropReason::JointLimits { joint } => {
-                            format!("limits of {}", robot.kinematics.joint_names()[*joint])
-                        }
-                        other => format!("{other:?}"),
-                    },
-                ))
-                .or_default() += 1;
-        }
-        if !by_cond.is_empty() {
-            let list: Vec<String> = by_cond
-                .iter()
-                .map(|((t, l, s, r), n)| {
-                    format!("({}°, {}, {s}) {r} ×{n}", *t as f64 / 1e3, *l as f64 / 1e3)
-                })
-                .collect();
-            println!("{label}: dropped (θ, λ, σ): {}", list.join("; "));
-        }
+        print_set(label, set, secs, &robot.kinematics);
     }
     println!("paper (G_MRT): 780 train / 600 test trajectories");
     if let Some(png) = &a.plot {
         plot(&cfg, &robot.kinematics, &p, png)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// One augmented set (`label`, augmented in `secs`): kept and dropped per sub-group, the
+/// time it took, the dropped conditions by reason.
+fn print_set(
+    label: &str,
+    set: &crossym::data::augmentation::AugmentedSet,
+    secs: f64,
+    kin: &crossym::kinematics::Kinematics,
+) {
+    use crossym::data::augmentation::DropReason;
+    use crossym::policy::SubGroup;
+    for g in SubGroup::ALL {
+        let dropped: Vec<_> = set.dropped.iter().filter(|d| g.contains(&d.1)).collect();
+        println!(
+            "{:<6} {:<9} {:>6} {:>8} {:>9} {:>8}",
+            label,
+            g.label(),
+            set.subset(g).len(),
+            dropped.len(),
+            dropped
+                .iter()
+                .filter(|d| d.2 == DropReason::Singular)
+                .count(),
+            dropped
+                .iter()
+                .filter(|d| matches!(d.2, DropReason::JointLimits { .. }))
+                .count(),
+        );
+    }
+    println!(
+        "{label}: G_MRT augmentation took {secs:.2} s on {} threads",
+        rayon::current_num_threads()
+    );
+    // Dropped conditions, aggregated over demonstrations.
+    let mut by_cond: std::collections::BTreeMap<(i64, i64, i8, String), usize> = Default::default();
+    for (_, c, r) in &set.dropped {
+        *by_cond
+            .entry((
+                (c.theta.to_degrees() * 1e3).round() as i64,
+                (c.scale * 1e3).round() as i64,
+                c.reflection,
+                match r {
+                    DropReason::JointLimits { joint } => {
+                        format!("limits of {}", kin.joint_names()[*joint])
+                    }
+                    other => format!("{other:?}"),
+                },
+            ))
+            .or_default() += 1;
+    }
+    if !by_cond.is_empty() {
+        let list: Vec<String> = by_cond
+            .iter()
+            .map(|((t, l, s, r), n)| {
+                format!("({}°, {}, {s}) {r} ×{n}", *t as f64 / 1e3, *l as f64 / 1e3)
+            })
+            .collect();
+        println!("{label}: dropped (θ, λ, σ): {}", list.join("; "));
+    }
 }
 
 /// `--plot`: the first training demonstration and its augmented copies, one panel per

@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use crossym::config::Config;
+use crossym::symmetry::check::CheckReport;
 use crossym::symmetry::compose::Composition;
 
 /// Options of `crossym check`.
@@ -53,6 +54,30 @@ pub fn run(a: &CheckArgs) -> anyhow::Result<ExitCode> {
         report.samples
     );
     println!();
+    print_symmetries(&report);
+    println!();
+    print_pairs(&report, &cfg.composition.order);
+    println!();
+    if !cfg.composition.order.is_empty() {
+        match report.group_expression(&cfg.composition.order) {
+            Some(g) => println!(
+                "composed group: {g}   (order outer → inner: {}, eq. 23)",
+                cfg.composition.order.join(", ")
+            ),
+            None => println!("composed group: none — a requested pair is incompatible"),
+        }
+    }
+    if report.ok() {
+        println!("verdict: ok");
+        Ok(ExitCode::SUCCESS)
+    } else {
+        println!("verdict: FAILED (a transfer failed or a requested composition is impossible)");
+        Ok(ExitCode::from(1))
+    }
+}
+
+/// The table of symmetries: group, transfer, the numerical checks and the verdict of each.
+fn print_symmetries(report: &CheckReport) {
     println!(
         "{:<6} {:<6} {:<4} {:<16} {:>12} {:>12} {:>10}  verdict",
         "symm", "group", "on", "transfer", "equivariance", "2π drift", "bracket⊥"
@@ -74,7 +99,11 @@ pub fn run(a: &CheckArgs) -> anyhow::Result<ExitCode> {
             println!("{:>13}{n}", "");
         }
     }
-    println!();
+}
+
+/// The table of pairs: composition, residuals and details (`order`: the requested
+/// composition order; a pair outside it is marked).
+fn print_pairs(report: &CheckReport, order: &[String]) {
     println!(
         "{:<8} {:<5} {:<13} {:>12} {:>12}  details",
         "pair", "space", "composition", "residual", "lifted ⊥"
@@ -89,29 +118,12 @@ pub fn run(a: &CheckArgs) -> anyhow::Result<ExitCode> {
             sci(residual),
             p.lifted_vertical.map_or("-".into(), sci),
             details,
-            if p.requested || cfg.composition.order.is_empty() {
+            if p.requested || order.is_empty() {
                 ""
             } else {
                 " (not requested)"
             }
         );
-    }
-    println!();
-    if !cfg.composition.order.is_empty() {
-        match report.group_expression(&cfg.composition.order) {
-            Some(g) => println!(
-                "composed group: {g}   (order outer → inner: {}, eq. 23)",
-                cfg.composition.order.join(", ")
-            ),
-            None => println!("composed group: none — a requested pair is incompatible"),
-        }
-    }
-    if report.ok() {
-        println!("verdict: ok");
-        Ok(ExitCode::SUCCESS)
-    } else {
-        println!("verdict: FAILED (a transfer failed or a requested composition is impossible)");
-        Ok(ExitCode::from(1))
     }
 }
 

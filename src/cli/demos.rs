@@ -61,7 +61,6 @@ pub fn run(a: &DemosArgs) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("{}: no [demonstrations] section", a.config.display()))?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
-    let names = kin.joint_names();
     println!(
         "crossym demos: {} sources, Δt = {} s, {} joints of {}",
         dcfg.sources.len(),
@@ -78,7 +77,26 @@ pub fn run(a: &DemosArgs) -> anyhow::Result<ExitCode> {
     }
     let ok: Vec<SourceDemos> = loaded.into_iter().filter_map(|(_, r)| r.ok()).collect();
     // Numbers and roles (when every source loaded, the selection is checked too).
-    let all = if refused == 0 {
+    let all = select(dcfg, ok, refused)?;
+    print_demonstrations(&all, dcfg, refused > 0, kin);
+    if let Some(dir) = &a.plot {
+        plot(dir, &cfg, kin, &all)?;
+    }
+    Ok(if refused > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// The demonstrations of the sources that loaded, numbered; with a source `refused`,
+/// without the train / test selection (its numbers would shift).
+fn select(
+    dcfg: &DemonstrationsConfig,
+    ok: Vec<SourceDemos>,
+    refused: usize,
+) -> anyhow::Result<Demonstrations> {
+    Ok(if refused == 0 {
         Demonstrations::from_sources(dcfg, ok)?
     } else {
         let mut d = Demonstrations::from_sources(
@@ -92,32 +110,23 @@ pub fn run(a: &DemosArgs) -> anyhow::Result<ExitCode> {
         d.train.clear();
         d.test.clear();
         d
-    };
+    })
+}
+
+/// One report line per source and per demonstration: number, name, role, duration, peak
+/// speed, smallest limit margin.
+fn print_demonstrations(
+    all: &Demonstrations,
+    dcfg: &DemonstrationsConfig,
+    refused: bool,
+    kin: &crossym::kinematics::Kinematics,
+) {
+    let names = kin.joint_names();
     let mut number = 1;
     for s in &all.sources {
         print_source(s);
         for (k, (dn, d)) in s.demos.iter().enumerate() {
-            // With a refused source numbers shift: roles by name only.
-            let named = |picks: &[Pick]| {
-                picks
-                    .iter()
-                    .any(|p| matches!(p, Pick::Name(n) if n == dn || *n == s.name))
-            };
-            let role = if refused > 0 {
-                if named(&dcfg.test) {
-                    "test"
-                } else if named(&dcfg.train) {
-                    "train"
-                } else {
-                    "–"
-                }
-            } else if all.test.contains(&number) {
-                "test"
-            } else if all.train.contains(&number) {
-                "train"
-            } else {
-                "unused"
-            };
+            let role = role(dcfg, all, refused, &s.name, dn, number);
             let start = match &s.detail {
                 SourceDetail::Recorded(r) => format!(" from t = {:.2} s", r.starts_s[k]),
                 SourceDetail::Tracked { .. } | SourceDetail::Episodes(_) => String::new(),
@@ -137,14 +146,39 @@ pub fn run(a: &DemosArgs) -> anyhow::Result<ExitCode> {
             number += 1;
         }
     }
-    if let Some(dir) = &a.plot {
-        plot(dir, &cfg, kin, &all)?;
-    }
-    Ok(if refused > 0 {
-        ExitCode::FAILURE
+}
+
+/// Demonstration `number` (`dn` of `source`): test, train or unused; with a source
+/// `refused`, by name only (–: not named).
+fn role(
+    dcfg: &DemonstrationsConfig,
+    all: &Demonstrations,
+    refused: bool,
+    source: &str,
+    dn: &str,
+    number: usize,
+) -> &'static str {
+    // With a refused source numbers shift: roles by name only.
+    let named = |picks: &[Pick]| {
+        picks
+            .iter()
+            .any(|p| matches!(p, Pick::Name(n) if n == dn || n == source))
+    };
+    if refused {
+        if named(&dcfg.test) {
+            "test"
+        } else if named(&dcfg.train) {
+            "train"
+        } else {
+            "–"
+        }
+    } else if all.test.contains(&number) {
+        "test"
+    } else if all.train.contains(&number) {
+        "train"
     } else {
-        ExitCode::SUCCESS
-    })
+        "unused"
+    }
 }
 
 /// `; N samples OUTSIDE the joint limits`, or nothing.

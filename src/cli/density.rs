@@ -83,24 +83,6 @@ pub fn run(a: &DensityArgs) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(!test.trajectories.is_empty(), "no feasible test trajectory");
     let angles = test_grid.angles();
     let mut out = Tables::new(a);
-    // RMSE per test angle: (θ°, mean, count, diverged).
-    let per_angle = |policy: &EvalSet<'_>| {
-        angles
-            .iter()
-            .filter_map(|&theta| {
-                let set: Vec<_> = test
-                    .trajectories
-                    .iter()
-                    .filter(|t| (t.condition.theta - theta).abs() < 1e-9)
-                    .map(|t| (&t.traj, t.condition))
-                    .collect();
-                (!set.is_empty()).then(|| {
-                    let c = policy(&set);
-                    (theta.to_degrees(), c.mean, c.count, c.diverged)
-                })
-            })
-            .collect::<Vec<_>>()
-    };
     let equivariant = match &a.equivariant {
         Some(p) => Some(load_equivariant(&cfg, kin, p)?),
         None => None,
@@ -121,30 +103,71 @@ pub fn run(a: &DensityArgs) -> anyhow::Result<ExitCode> {
             data.len(),
             tc.iterations
         );
-        let meta = crossym::policy::PolicyMeta::new(
-            &kin.robot,
-            kin.joint_names().to_vec(),
-            serde_json::json!({ "group": "G_R", "rotation_step_deg": step }),
-        );
-        let features = crossym::pipeline::task_features_for(
-            &cfg,
-            kin,
-            &built,
-            &tc,
-            crossym::policy::SubGroup::R,
-        )?;
-        let (policy, report) =
-            crossym::train::train_with_features(&data, &tc, meta, features, |_, _| {})?;
-        let rows = per_angle(&|set| crossym::eval::evaluate(&policy, kin, set, &cfg.eval));
+        let (policy, report) = train_rotations(&cfg, kin, &built, &tc, step, &data)?;
+        let rows = per_angle(&test, &angles, &|set| {
+            crossym::eval::evaluate(&policy, kin, set, &cfg.eval)
+        });
         let c = curve_colour(si, a.steps.len());
         out.add_step(step, (c.0, c.1, c.2), data.len(), &report, &rows);
     }
     if let Some(policy) = &equivariant {
-        let rows = per_angle(&|set| crossym::eval::evaluate(policy, kin, set, &cfg.eval));
+        let rows = per_angle(&test, &angles, &|set| {
+            crossym::eval::evaluate(policy, kin, set, &cfg.eval)
+        });
         out.add_equivariant(&rows, demos.train.len());
     }
     out.write(a, &cfg, kin, tc.iterations)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// RMSE per test angle of `policy` on the `test` trajectories: (θ°, mean, count, diverged).
+#[cfg(feature = "teach")]
+fn per_angle(
+    test: &crossym::data::augmentation::AugmentedSet,
+    angles: &[f64],
+    policy: &EvalSet<'_>,
+) -> Vec<(f64, f64, usize, usize)> {
+    angles
+        .iter()
+        .filter_map(|&theta| {
+            let set: Vec<_> = test
+                .trajectories
+                .iter()
+                .filter(|t| (t.condition.theta - theta).abs() < 1e-9)
+                .map(|t| (&t.traj, t.condition))
+                .collect();
+            (!set.is_empty()).then(|| {
+                let c = policy(&set);
+                (theta.to_degrees(), c.mean, c.count, c.diverged)
+            })
+        })
+        .collect::<Vec<_>>()
+}
+
+/// `π_R` trained on `data`, the training letters augmented with rotation step `step`.
+#[cfg(feature = "teach")]
+fn train_rotations(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    built: &[crossym::symmetry::built::BuiltSymmetry],
+    tc: &crossym::policy::train_config::TrainConfig,
+    step: f64,
+    data: &[(&JointTrajectory, Condition)],
+) -> anyhow::Result<(crossym::policy::Policy, crossym::train::TrainReport)> {
+    let meta = crossym::policy::PolicyMeta::new(
+        &kin.robot,
+        kin.joint_names().to_vec(),
+        serde_json::json!({ "group": "G_R", "rotation_step_deg": step }),
+    );
+    let features =
+        crossym::pipeline::task_features_for(cfg, kin, built, tc, crossym::policy::SubGroup::R)?;
+    Ok(crossym::train::train_with_features(
+        data,
+        tc,
+        meta,
+        features,
+        |_, _| {},
+    )?)
 }
 
 /// `--equivariant P`: the canonicalised policy `P` (refused when plain).

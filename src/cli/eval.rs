@@ -1,7 +1,7 @@
 //! `crossym eval`: policies evaluated on the test sets of every sub-group (Table II, in
 //! either protocol) and their fit to the demonstrations.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
@@ -55,72 +55,12 @@ pub enum Protocol {
 
 /// `crossym eval`.
 pub fn run(a: &EvalArgs) -> anyhow::Result<ExitCode> {
-    let (path, policies, out, protocol, canonicalise) = (
-        &a.config,
-        &a.policies,
-        a.out.as_path(),
-        a.protocol,
-        &a.canonicalise,
-    );
+    let (path, policies, out, protocol) = (&a.config, &a.policies, a.out.as_path(), a.protocol);
     let cfg = Config::from_file(path)?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
-    // `--policy label=path` (relative to the working directory), else `[eval] policies`
-    // (relative to the config file).
-    let specs: Vec<(String, PathBuf)> = if policies.is_empty() {
-        anyhow::ensure!(
-            !cfg.eval.policies.is_empty(),
-            "{}: no --policy given and no [eval] policies",
-            path.display()
-        );
-        cfg.eval
-            .policies
-            .iter()
-            .map(|(l, p)| (l.clone(), cfg.base_dir.join(p)))
-            .collect()
-    } else {
-        policies
-            .iter()
-            .map(|spec| {
-                spec.split_once('=')
-                    .map(|(l, p)| (l.to_string(), PathBuf::from(p)))
-                    .with_context(|| format!("--policy `{spec}`: expected label=path"))
-            })
-            .collect::<anyhow::Result<_>>()?
-    };
-    for (flag, labels) in [
-        ("--canonicalise", canonicalise),
-        ("--plain-lift", &a.plain_lift),
-    ] {
-        if let Some(l) = labels
-            .iter()
-            .find(|l| !specs.iter().any(|(label, _)| label == *l))
-        {
-            anyhow::bail!("{flag} {l}: no policy labelled `{l}`");
-        }
-    }
-    let mut loaded = Vec::new();
-    for (label, file) in specs {
-        let policy = crossym::pipeline::load_any_policy(&cfg, kin, &file)?;
-        let policy = match policy {
-            AnyPolicy::Plain(p) if canonicalise.contains(&label) => {
-                crossym::pipeline::canonicalise(&cfg, kin, *p)
-                    .with_context(|| format!("--canonicalise {label}"))?
-            }
-            other => other,
-        };
-        let policy = if a.plain_lift.contains(&label) {
-            let (p, had) = policy.with_plain_lift();
-            anyhow::ensure!(
-                had,
-                "--plain-lift {label}: not a task head with a `[redundancy]` null-space term"
-            );
-            p
-        } else {
-            policy
-        };
-        loaded.push((label, policy));
-    }
+    let specs = policy_specs(&cfg, path, policies)?;
+    let loaded = load_policies(a, &cfg, kin, specs)?;
     if protocol == Protocol::Paper {
         let p = pipeline(&cfg, kin, crossym::pipeline::paper::splits(&cfg))?;
         let files = crossym::pipeline::paper::table2_paper(&cfg, kin, &loaded, &p, out, |row| {
@@ -157,4 +97,78 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<ExitCode> {
     })?;
     println!("wrote {} and {}", fit.markdown.display(), fit.csv.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The policies to evaluate, `(label, file)`: `--policy label=path` (relative to the
+/// working directory), else `[eval] policies` (relative to the config file at `path`).
+fn policy_specs(
+    cfg: &Config,
+    path: &Path,
+    policies: &[String],
+) -> anyhow::Result<Vec<(String, PathBuf)>> {
+    Ok(if policies.is_empty() {
+        anyhow::ensure!(
+            !cfg.eval.policies.is_empty(),
+            "{}: no --policy given and no [eval] policies",
+            path.display()
+        );
+        cfg.eval
+            .policies
+            .iter()
+            .map(|(l, p)| (l.clone(), cfg.base_dir.join(p)))
+            .collect()
+    } else {
+        policies
+            .iter()
+            .map(|spec| {
+                spec.split_once('=')
+                    .map(|(l, p)| (l.to_string(), PathBuf::from(p)))
+                    .with_context(|| format!("--policy `{spec}`: expected label=path"))
+            })
+            .collect::<anyhow::Result<_>>()?
+    })
+}
+
+/// The policies of `specs` loaded, `--canonicalise`d and with `--plain-lift` as asked (a
+/// label of either flag must name one of them).
+fn load_policies(
+    a: &EvalArgs,
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    specs: Vec<(String, PathBuf)>,
+) -> anyhow::Result<Vec<(String, AnyPolicy)>> {
+    for (flag, labels) in [
+        ("--canonicalise", &a.canonicalise),
+        ("--plain-lift", &a.plain_lift),
+    ] {
+        if let Some(l) = labels
+            .iter()
+            .find(|l| !specs.iter().any(|(label, _)| label == *l))
+        {
+            anyhow::bail!("{flag} {l}: no policy labelled `{l}`");
+        }
+    }
+    let mut loaded = Vec::new();
+    for (label, file) in specs {
+        let policy = crossym::pipeline::load_any_policy(cfg, kin, &file)?;
+        let policy = match policy {
+            AnyPolicy::Plain(p) if a.canonicalise.contains(&label) => {
+                crossym::pipeline::canonicalise(cfg, kin, *p)
+                    .with_context(|| format!("--canonicalise {label}"))?
+            }
+            other => other,
+        };
+        let policy = if a.plain_lift.contains(&label) {
+            let (p, had) = policy.with_plain_lift();
+            anyhow::ensure!(
+                had,
+                "--plain-lift {label}: not a task head with a `[redundancy]` null-space term"
+            );
+            p
+        } else {
+            policy
+        };
+        loaded.push((label, policy));
+    }
+    Ok(loaded)
 }

@@ -59,38 +59,12 @@ pub fn run(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
     let condition = parse_condition(&a.condition)?;
-    let policy_path = match &a.policy {
-        Some(p) => p.clone(),
-        None => node_config(&cfg, &NodeOverrides::default())?
-            .policy
-            .with_context(|| {
-                format!(
-                    "{}: no --policy given and [node] policy is not set",
-                    a.config.display()
-                )
-            })?,
-    };
+    let policy_path = policy_path(a, &cfg)?;
     let policy = crossym::pipeline::load_any_policy(&cfg, kin, &policy_path)?;
     let (q0, nominal, label) = start_state(a, &cfg, kin, &condition)?;
-    let dt = match (a.dt, &nominal) {
-        (Some(dt), _) => dt,
-        (None, Some(t)) => t.dt,
-        (None, None) => cfg.node_config().period_s,
-    };
-    anyhow::ensure!(dt.is_finite() && dt > 0.0, "--dt {dt} must be positive");
-    let len = match (a.duration_s, &nominal) {
-        (Some(d), _) => {
-            anyhow::ensure!(
-                d.is_finite() && d > 0.0,
-                "--duration-s {d} must be positive"
-            );
-            (d / dt).round() as usize + 1
-        }
-        (None, Some(t)) => samples_spanning(t, dt),
-        (None, None) => (10.0 / dt).round() as usize + 1,
-    };
+    let (dt, len) = step_and_length(a, &cfg, nominal.as_ref())?;
     let r = rollout(&policy, kin, &q0, &condition, dt, len);
-    let (t, m) = (&r.traj, r.traj.m);
+    let t = &r.traj;
 
     let csv = csv(kin, t, nominal.as_ref(), dt)?;
     crossym::pipeline::create_parent(&a.out)?;
@@ -105,10 +79,76 @@ pub fn run(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
         condition.reflection,
         t.len()
     );
+    let finite = print_end(kin, t, r.status, dt);
+    if let Some(nom) = &nominal {
+        print_score(&cfg, nom, t, dt, finite);
+    }
+    println!("  wrote {}", a.out.display());
+    if let Some(png) = &a.plot {
+        let caption = format!(
+            "{label}, {}, {:.1} s at Δt = {} s",
+            condition_label(&condition),
+            (t.len().max(1) - 1) as f64 * dt,
+            dt
+        );
+        plot(png, &cfg, kin, &policy_path, caption, t, nominal.as_ref())?;
+    }
+    Ok(if finite {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The policy file: `--policy`, else `[node] policy` of the config.
+fn policy_path(a: &RolloutArgs, cfg: &Config) -> anyhow::Result<PathBuf> {
+    Ok(match &a.policy {
+        Some(p) => p.clone(),
+        None => node_config(cfg, &NodeOverrides::default())?
+            .policy
+            .with_context(|| {
+                format!(
+                    "{}: no --policy given and [node] policy is not set",
+                    a.config.display()
+                )
+            })?,
+    })
+}
+
+/// The integration step and the number of samples: `--dt` and `--duration-s`, else the
+/// `nominal` demonstration's, else `[node] period_s` and 10 s.
+fn step_and_length(
+    a: &RolloutArgs,
+    cfg: &Config,
+    nominal: Option<&JointTrajectory>,
+) -> anyhow::Result<(f64, usize)> {
+    let dt = match (a.dt, nominal) {
+        (Some(dt), _) => dt,
+        (None, Some(t)) => t.dt,
+        (None, None) => cfg.node_config().period_s,
+    };
+    anyhow::ensure!(dt.is_finite() && dt > 0.0, "--dt {dt} must be positive");
+    let len = match (a.duration_s, nominal) {
+        (Some(d), _) => {
+            anyhow::ensure!(
+                d.is_finite() && d > 0.0,
+                "--duration-s {d} must be positive"
+            );
+            (d / dt).round() as usize + 1
+        }
+        (None, Some(t)) => samples_spanning(t, dt),
+        (None, None) => (10.0 / dt).round() as usize + 1,
+    };
+    Ok((dt, len))
+}
+
+/// How the rollout `t` ended (its last state, or where it turned non-finite) and its samples
+/// outside the joint limits; whether it stayed finite.
+fn print_end(kin: &Kinematics, t: &JointTrajectory, status: RolloutStatus, dt: f64) -> bool {
     let outside = (0..t.len())
         .filter(|&k| t.q(k).iter().all(|v| v.is_finite()) && !kin.within_limits(t.q(k)))
         .count();
-    let finite = match r.status {
+    let finite = match status {
         RolloutStatus::Finite => true,
         RolloutStatus::NonFinite { sample } => {
             println!(
@@ -133,38 +173,27 @@ pub fn run(a: &RolloutArgs) -> anyhow::Result<ExitCode> {
         );
     }
     println!("  samples outside the joint limits: {outside}");
-    if let Some(nom) = &nominal {
-        // Sample by sample at the same times (the nominal interpolated when `--dt` differs
-        // from its step, its goal past its end).
-        let s = score_path_timed(nom, &t.x, dt, &cfg.eval);
-        println!(
-            "  RMSE against the nominal over {} samples ({:.2} s): {:.4} Euclidean, {:.4} per coordinate (task units){}",
-            t.len(),
-            (t.len() - 1) as f64 * dt,
-            s.rmse,
-            s.rmse / (m as f64).sqrt(),
-            if s.diverged { "; DIVERGED" } else { "" }
-        );
-        if finite {
-            let d = distance(t.x(t.len() - 1), nom.x(nom.len() - 1));
-            println!("  final distance to the nominal's goal: {d:.4} (task units)");
-        }
+    finite
+}
+
+/// The rollout `t` scored against the nominal trajectory `nom` (and, when it stayed
+/// `finite`, its distance to the nominal's goal).
+fn print_score(cfg: &Config, nom: &JointTrajectory, t: &JointTrajectory, dt: f64, finite: bool) {
+    // Sample by sample at the same times (the nominal interpolated when `--dt` differs
+    // from its step, its goal past its end).
+    let s = score_path_timed(nom, &t.x, dt, &cfg.eval);
+    println!(
+        "  RMSE against the nominal over {} samples ({:.2} s): {:.4} Euclidean, {:.4} per coordinate (task units){}",
+        t.len(),
+        (t.len() - 1) as f64 * dt,
+        s.rmse,
+        s.rmse / (t.m as f64).sqrt(),
+        if s.diverged { "; DIVERGED" } else { "" }
+    );
+    if finite {
+        let d = distance(t.x(t.len() - 1), nom.x(nom.len() - 1));
+        println!("  final distance to the nominal's goal: {d:.4} (task units)");
     }
-    println!("  wrote {}", a.out.display());
-    if let Some(png) = &a.plot {
-        let caption = format!(
-            "{label}, {}, {:.1} s at Δt = {} s",
-            condition_label(&condition),
-            (t.len().max(1) - 1) as f64 * dt,
-            dt
-        );
-        plot(png, &cfg, kin, &policy_path, caption, t, nominal.as_ref())?;
-    }
-    Ok(if finite {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
 }
 
 /// The start state and, from a demonstration, the nominal trajectory and a label.

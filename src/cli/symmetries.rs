@@ -3,7 +3,7 @@
 //! and as MorphoSymm's YAML.
 
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -139,17 +139,7 @@ pub fn run(a: &SymmetriesArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("--tolerance {} is not a positive number", a.tolerance);
     }
     let model = RobotModel::from_urdf_file(&a.urdf)?;
-    let settings = BodySettings {
-        samples: a.samples,
-        position_tolerance: a.tolerance,
-        axis_tolerance: a.tolerance,
-        residual_tolerance: a.tolerance,
-        planes: (!a.planes.is_empty()).then(|| a.planes.clone()),
-        ignore_links: a.ignore_links.clone(),
-        strict_links: a.strict_links,
-        require_consistent_limits: a.require_limits,
-        ..BodySettings::default()
-    };
+    let settings = body_settings(a);
     let t0 = Instant::now();
     let g = derive_body_symmetries(
         &model,
@@ -160,6 +150,29 @@ pub fn run(a: &SymmetriesArgs) -> anyhow::Result<ExitCode> {
     )
     .with_context(|| format!("{}", a.urdf.display()))?;
     let dt = t0.elapsed().as_secs_f64();
+    print_summary(&g, a, dt);
+    print_details(&g, a.all);
+    write_files(&g, &a.out)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The derivation's settings from the options.
+fn body_settings(a: &SymmetriesArgs) -> BodySettings {
+    BodySettings {
+        samples: a.samples,
+        position_tolerance: a.tolerance,
+        axis_tolerance: a.tolerance,
+        residual_tolerance: a.tolerance,
+        planes: (!a.planes.is_empty()).then(|| a.planes.clone()),
+        ignore_links: a.ignore_links.clone(),
+        strict_links: a.strict_links,
+        require_consistent_limits: a.require_limits,
+        ..BodySettings::default()
+    }
+}
+
+/// The robot, the group found (derived in `dt` s) and one row per element.
+fn print_summary(g: &BodySymmetries, a: &SymmetriesArgs, dt: f64) {
     println!(
         "robot `{}` ({}): base `{}`, {} joints, size {:.3} m",
         g.robot,
@@ -190,13 +203,18 @@ pub fn run(a: &SymmetriesArgs) -> anyhow::Result<ExitCode> {
             e.unmatched_links.join(", ")
         );
     }
-    let shown: Vec<&BodyElement> = if a.all {
+}
+
+/// The joint maps of the reflections (`all`: of every element), the planes that are not
+/// symmetries, the joint limits a reflection does not preserve.
+fn print_details(g: &BodySymmetries, all: bool) {
+    let shown: Vec<&BodyElement> = if all {
         g.elements.iter().skip(1).collect()
     } else {
         g.reflections().iter().collect()
     };
     for e in shown {
-        print_map(&g, e);
+        print_map(g, e);
     }
     if !g.rejected.is_empty() {
         println!("\nplanes that are not symmetries:");
@@ -217,21 +235,26 @@ pub fn run(a: &SymmetriesArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
+}
+
+/// The group as a crossym config (`<robot>_symmetries.toml`) and for MorphoSymm
+/// (`<robot>_morphosymm.yaml`) in directory `out`.
+fn write_files(g: &BodySymmetries, out: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("{}", out.display()))?;
     let stem = g
         .robot
         .replace(|c: char| !c.is_ascii_alphanumeric() && c != '_', "_");
-    let toml_path = a.out.join(format!("{stem}_symmetries.toml"));
-    let yaml_path = a.out.join(format!("{stem}_morphosymm.yaml"));
-    std::fs::write(&toml_path, to_toml(&g)).with_context(|| format!("{}", toml_path.display()))?;
-    std::fs::write(&yaml_path, to_morphosymm_yaml(&g))
+    let toml_path = out.join(format!("{stem}_symmetries.toml"));
+    let yaml_path = out.join(format!("{stem}_morphosymm.yaml"));
+    std::fs::write(&toml_path, to_toml(g)).with_context(|| format!("{}", toml_path.display()))?;
+    std::fs::write(&yaml_path, to_morphosymm_yaml(g))
         .with_context(|| format!("{}", yaml_path.display()))?;
     println!(
         "\nwrote {} and {}",
         toml_path.display(),
         yaml_path.display()
     );
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 fn fmt_normal(n: &Vector3<f64>) -> String {

@@ -110,30 +110,11 @@ pub fn run(_: &TrainArgs) -> anyhow::Result<ExitCode> {
 #[cfg(feature = "teach")]
 pub fn run(a: &TrainArgs) -> anyhow::Result<ExitCode> {
     let kind = TrainKind::from_flags(a.equivariant, a.task_head);
-    let (path, out, iterations) = (&a.config, a.out.as_path(), a.iterations);
-    let cfg = Config::from_file(path)?;
-    // A task head may be written for several sub-groups at once (one network).
-    let groups: Vec<SubGroup> = match (kind, &a.group) {
-        (TrainKind::Equivariant, _) => vec![SubGroup::Identity],
-        (_, Some(given)) => given.iter().map(|&g| g.into()).collect(),
-        (_, None) => vec![SubGroup::MRT],
-    };
-    anyhow::ensure!(
-        groups.len() == 1
-            || (kind == TrainKind::TaskHead && out.to_string_lossy().contains("{group}")),
-        "--group with several sub-groups needs --task-head and `{{group}}` in --out"
-    );
+    let cfg = Config::from_file(&a.config)?;
+    let out = a.out.as_path();
+    let groups = sub_groups(kind, a)?;
     let g = groups[0];
-    let section = match kind {
-        TrainKind::TaskHead if cfg.train_task_head.is_some() => &cfg.train_task_head,
-        _ => &cfg.train,
-    };
-    let mut tc = section
-        .clone()
-        .with_context(|| format!("{}: no [train] section", path.display()))?;
-    if let Some(it) = iterations {
-        tc.iterations = it;
-    }
+    let tc = train_config(kind, &cfg, a)?;
     let robot = cfg.load_robot()?;
     let kin = &robot.kinematics;
     let p = pipeline(
@@ -147,14 +128,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<ExitCode> {
     )?;
     announce(kind, &p, &groups, &tc);
     let total_iterations = tc.iterations * tc.ensemble;
-    let bar = indicatif::ProgressBar::new(total_iterations as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "  [{bar:30}] {pos}/{len} it, loss {msg} {elapsed}/{duration}",
-        )
-        .expect("static template")
-        .progress_chars("=> "),
-    );
+    let bar = progress_bar(total_iterations);
     // The loss log: every logged iteration to CSV, a tenth of the run to stdout.
     let mut log = String::from("iteration,loss,learning_rate\n");
     let tenth = total_iterations.div_ceil(10).max(1);
@@ -185,7 +159,75 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<ExitCode> {
     };
     let (policy, report) = (trained.policy, trained.report);
     bar.finish_and_clear();
-    let written = save(&cfg, kin, &policy, &groups, out)?;
+    write_outputs(&cfg, kin, &policy, &groups, out, &log, &report)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The sub-groups the policy is written for (a task head may be written for several at
+/// once: one network).
+#[cfg(feature = "teach")]
+fn sub_groups(kind: TrainKind, a: &TrainArgs) -> anyhow::Result<Vec<SubGroup>> {
+    let groups: Vec<SubGroup> = match (kind, &a.group) {
+        (TrainKind::Equivariant, _) => vec![SubGroup::Identity],
+        (_, Some(given)) => given.iter().map(|&g| g.into()).collect(),
+        (_, None) => vec![SubGroup::MRT],
+    };
+    anyhow::ensure!(
+        groups.len() == 1
+            || (kind == TrainKind::TaskHead && a.out.to_string_lossy().contains("{group}")),
+        "--group with several sub-groups needs --task-head and `{{group}}` in --out"
+    );
+    Ok(groups)
+}
+
+/// The training settings: `[train_task_head]` for a task head when present, else `[train]`;
+/// `--iterations` applied.
+#[cfg(feature = "teach")]
+fn train_config(
+    kind: TrainKind,
+    cfg: &Config,
+    a: &TrainArgs,
+) -> anyhow::Result<crossym::policy::TrainConfig> {
+    let section = match kind {
+        TrainKind::TaskHead if cfg.train_task_head.is_some() => &cfg.train_task_head,
+        _ => &cfg.train,
+    };
+    let mut tc = section
+        .clone()
+        .with_context(|| format!("{}: no [train] section", a.config.display()))?;
+    if let Some(it) = a.iterations {
+        tc.iterations = it;
+    }
+    Ok(tc)
+}
+
+/// The progress bar of `total_iterations` iterations.
+#[cfg(feature = "teach")]
+fn progress_bar(total_iterations: usize) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(total_iterations as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "  [{bar:30}] {pos}/{len} it, loss {msg} {elapsed}/{duration}",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
+    );
+    bar
+}
+
+/// Saves the policy (for each of `groups`) and its loss `log` (CSV) beside the first file,
+/// and prints what was written and the loss of `report`.
+#[cfg(feature = "teach")]
+fn write_outputs(
+    cfg: &Config,
+    kin: &crossym::kinematics::Kinematics,
+    policy: &crossym::policy::Policy,
+    groups: &[SubGroup],
+    out: &Path,
+    log: &str,
+    report: &crossym::train::TrainReport,
+) -> anyhow::Result<()> {
+    let written = save(cfg, kin, policy, groups, out)?;
     let out = &written[0];
     if written.len() > 1 {
         let names: Vec<String> = written.iter().map(|f| f.display().to_string()).collect();
@@ -195,7 +237,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let log_path = out.with_extension("loss.csv");
-    std::fs::write(&log_path, &log).with_context(|| format!("writing {}", log_path.display()))?;
+    std::fs::write(&log_path, log).with_context(|| format!("writing {}", log_path.display()))?;
     println!(
         "loss {:.4e} → {:.4e} in {} iterations, {:.1} s; saved {} (loss log {})",
         report.initial_loss,
@@ -205,7 +247,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<ExitCode> {
         out.display(),
         log_path.display()
     );
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 /// The line announcing what is trained.

@@ -77,7 +77,45 @@ pub fn table2_paper<P: crate::eval::ConditionedPolicy>(
         .iter()
         .map(|g| pool.iter().filter(|a| g.contains(&a.condition)).count())
         .collect();
-    let (describe, pooled) = match protocol {
+    let (describe, pooled) = describe_protocol(cfg, kin, p, &pool, protocol)?;
+    let mut md = String::from("| Policy |");
+    for (g, c) in SubGroup::ALL.iter().zip(&counts) {
+        let _ = write!(md, " {} ({c}) |", g.label());
+    }
+    md.push_str("\n|---|---|---|---|---|\n");
+    let mut csv = String::from("policy,test_set,value,std,std_of,count,diverged\n");
+    let project = projection(cfg, kin, protocol);
+    for (label, policy) in loaded {
+        let errors: Vec<TrajectoryError> = pool
+            .par_iter()
+            .map(|a| match pooled {
+                Some((warmup, horizon)) => pooled_error(policy, kin, a, warmup, horizon, cfg),
+                None => resampled_error(policy, kin, a, &project, protocol, cfg),
+            })
+            .collect();
+        let row = policy_row(label, &pool, &errors, pooled.is_some(), &mut csv);
+        on_row(&row);
+        md.push_str(&row);
+        md.push('\n');
+    }
+    let _ = write!(md, "\n{describe}\n");
+    let write = |name: &str, text: &str| super::write_text(out, name, text);
+    Ok(PaperFiles {
+        markdown: write("table2_paper.md", &md)?,
+        csv: write("table2_paper.csv", &csv)?,
+    })
+}
+
+/// The protocol's description under the table, and for the pooled protocol its warm-up and
+/// horizon (samples; refused when a trajectory of `pool` is no longer than the warm-up).
+fn describe_protocol(
+    cfg: &Config,
+    kin: &Kinematics,
+    p: &Pipeline,
+    pool: &[&Augmented],
+    protocol: PaperProtocol,
+) -> Result<(String, Option<(usize, usize)>), PipelineError> {
+    Ok(match protocol {
         PaperProtocol::Pooled { warmup_samples } => {
             let horizon = pooled_horizon(pool.iter().map(|a| a.traj.len()), warmup_samples)
                 .ok_or_else(|| {
@@ -121,61 +159,50 @@ pub fn table2_paper<P: crate::eval::ConditionedPolicy>(
             ),
             None,
         ),
-    };
-    let mut md = String::from("| Policy |");
-    for (g, c) in SubGroup::ALL.iter().zip(&counts) {
-        let _ = write!(md, " {} ({c}) |", g.label());
-    }
-    md.push_str("\n|---|---|---|---|---|\n");
-    let mut csv = String::from("policy,test_set,value,std,std_of,count,diverged\n");
-    let project = projection(cfg, kin, protocol);
-    for (label, policy) in loaded {
-        let errors: Vec<TrajectoryError> = pool
-            .par_iter()
-            .map(|a| match pooled {
-                Some((warmup, horizon)) => pooled_error(policy, kin, a, warmup, horizon, cfg),
-                None => resampled_error(policy, kin, a, &project, protocol, cfg),
-            })
-            .collect();
-        let mut row = format!("| {label} |");
-        for g in SubGroup::ALL {
-            let set: Vec<TrajectoryError> = pool
-                .iter()
-                .zip(&errors)
-                .filter(|(a, _)| g.contains(&a.condition))
-                .map(|(_, e)| *e)
-                .collect();
-            if set.is_empty() {
-                row.push_str(" – |");
-                let _ = writeln!(csv, "{label},{},,,,0,0", g.label());
-                continue;
-            }
-            let c = match pooled {
-                Some(_) => pooled_cell(&set),
-                None => resampled_cell(&set),
-            };
-            row.push_str(&cell_text(&c));
-            let _ = writeln!(
-                csv,
-                "{label},{},{},{},{},{},{}",
-                g.label(),
-                c.value,
-                c.std,
-                c.spread.label(),
-                c.count,
-                c.diverged
-            );
-        }
-        on_row(&row);
-        md.push_str(&row);
-        md.push('\n');
-    }
-    let _ = write!(md, "\n{describe}\n");
-    let write = |name: &str, text: &str| super::write_text(out, name, text);
-    Ok(PaperFiles {
-        markdown: write("table2_paper.md", &md)?,
-        csv: write("table2_paper.csv", &csv)?,
     })
+}
+
+/// The markdown row of policy `label` (a cell per sub-group, nested) from the `errors` of
+/// its rollouts on `pool` (`pooled`: under the pooled protocol, else the resampled one);
+/// its CSV lines appended to `csv`.
+fn policy_row(
+    label: &str,
+    pool: &[&Augmented],
+    errors: &[TrajectoryError],
+    pooled: bool,
+    csv: &mut String,
+) -> String {
+    let mut row = format!("| {label} |");
+    for g in SubGroup::ALL {
+        let set: Vec<TrajectoryError> = pool
+            .iter()
+            .zip(errors)
+            .filter(|(a, _)| g.contains(&a.condition))
+            .map(|(_, e)| *e)
+            .collect();
+        if set.is_empty() {
+            row.push_str(" – |");
+            let _ = writeln!(csv, "{label},{},,,,0,0", g.label());
+            continue;
+        }
+        let c = if pooled {
+            pooled_cell(&set)
+        } else {
+            resampled_cell(&set)
+        };
+        row.push_str(&cell_text(&c));
+        let _ = writeln!(
+            csv,
+            "{label},{},{},{},{},{},{}",
+            g.label(),
+            c.value,
+            c.std,
+            c.spread.label(),
+            c.count,
+            c.diverged
+        );
+    }
+    row
 }
 
 /// ` value ± std |` with the divergence count, both to three significant digits of the
