@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""No production function longer than MAX lines (docs/ARCHITECTURE.md, "Style"): every
+"""No production function longer than MAX lines (docs/ARCHITECTURE.md, "Conventions"): every
 `fn` of the workspace's crates and the application (src/, crates/*/src/), test modules,
 test files and vendored crates excluded; a function's length runs from its `fn` line to
 its closing brace. The exceptions are listed in ALLOWED with why.
