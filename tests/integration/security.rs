@@ -686,9 +686,9 @@ fn node_and_robot(
     (node, hw, node_log)
 }
 
-/// What the unsecured peer (tests/peer/attack_peer.py) saw while it published a condition
-/// for `seconds`: (conditions sent, commands received, statuses received, raw JSON).
-fn attack(domain: u16, seconds: f64) -> (u64, u64, u64, String) {
+/// What the unsecured peer (tests/peer/attack_peer.py) saw in `seconds` with `args` (its
+/// one JSON line).
+fn attack_peer(domain: u16, seconds: f64, args: &[&str]) -> serde_json::Value {
     assert!(
         common::python_has_cyclonedds(),
         "PyPI cyclonedds is missing: run `bash tests/peer/install.sh` (.ci/run does)"
@@ -701,7 +701,7 @@ fn attack(domain: u16, seconds: f64) -> (u64, u64, u64, String) {
             "--seconds",
             &seconds.to_string(),
         ])
-        .args(["--theta", "0.5", "--scale", "0.8", "--reflection", "1"])
+        .args(args)
         .output()
         .expect("python3 starts");
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -710,10 +710,20 @@ fn attack(domain: u16, seconds: f64) -> (u64, u64, u64, String) {
         "attack_peer.py: {stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let line = stdout.lines().last().unwrap_or_default().to_string();
-    let v: serde_json::Value = serde_json::from_str(&line).expect("one JSON line");
+    let line = stdout.lines().last().unwrap_or_default();
+    serde_json::from_str(line).expect("one JSON line")
+}
+
+/// What the unsecured peer saw while it published a condition (θ 0.5, λ 0.8, σ 1) for
+/// `seconds`: (conditions sent, commands received, statuses received, raw JSON).
+fn attack(domain: u16, seconds: f64) -> (u64, u64, u64, String) {
+    let v = attack_peer(
+        domain,
+        seconds,
+        &["--theta", "0.5", "--scale", "0.8", "--reflection", "1"],
+    );
     let n = |k: &str| v[k].as_u64().unwrap_or(0);
-    (n("sent"), n("commands"), n("statuses"), line)
+    (n("sent"), n("commands"), n("statuses"), v.to_string())
 }
 
 /// A DDS participant of this process in `domain`, secured as `enclave` of `ks` (Enforce).
@@ -726,6 +736,15 @@ fn secured_context(domain: u16, ks: &Path, enclave: &str) -> Result<ros2_client:
     }
     .context()
     .map_err(|e| e.to_string())
+}
+
+/// A node `/crossym_<tag>` of `ctx` (no rosout).
+fn plain_node(ctx: &ros2_client::Context, tag: &str) -> ros2_client::Node {
+    ctx.new_node(
+        dds::node_name("/", &format!("crossym_{tag}")).unwrap(),
+        ros2_client::NodeOptions::new().enable_rosout(false),
+    )
+    .unwrap()
 }
 
 /// (a) A secured node and a secured mock robot complete a short demo: every process of
@@ -798,7 +817,7 @@ fn secured_demo_passes() {
 /// against an unsecured node it reads the commands and the condition it publishes is
 /// applied (the attack works: seen first, in this test); against a secured node (Enforce)
 /// it receives nothing and the node never applies its condition, while the node keeps
-/// running — a secured operator (enclave /crossym/operator) sees its status throughout.
+/// running — a secured operator (enclave /crossym/operator) reads its status afterwards.
 #[test]
 fn unsecured_peer_neither_commands_nor_reads_a_secured_node() {
     // The attack succeeds against an unsecured node.
@@ -826,19 +845,6 @@ fn unsecured_peer_neither_commands_nor_reads_a_secured_node() {
     let ks = shipped_keystore(domain, "sec-attack");
     let dir = common::temp_dir("sec-attack-secured");
     let (mut node, mut hw, node_log) = node_and_robot(domain, Some(&ks), &dir);
-    let ctx = secured_context(domain, &ks, "/crossym/operator").expect("operator participant");
-    let mut onode = ctx
-        .new_node(
-            dds::node_name("/", "crossym_operator").unwrap(),
-            ros2_client::NodeOptions::new().enable_rosout(false),
-        )
-        .unwrap();
-    let status = dds::subscription::<crossym::msg::Status>(
-        &mut onode,
-        "/crossym/status",
-        dds::qos_reliable(100),
-    )
-    .expect("the operator may read the status");
     let (sent, commands, statuses, raw) = attack(domain, 6.0);
     assert!(sent >= 20, "{raw}");
     assert_eq!(
@@ -851,15 +857,8 @@ fn unsecured_peer_neither_commands_nor_reads_a_secured_node() {
         !text.contains("symmetry condition accepted"),
         "the secured node applied a condition ({raw})\n{text}"
     );
-    // The node ran on: its status reached the secured operator, with the default condition.
-    let t0 = Instant::now();
-    let mut seen = Vec::new();
-    while seen.len() < 5 && t0.elapsed() < Duration::from_secs(20) {
-        while let Ok(Some((s, _))) = status.take() {
-            seen.push(s);
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    // The node ran on: its status reaches a secured operator, with the default condition.
+    let seen = operator_statuses(domain, &ks, 5);
     assert!(
         seen.len() >= 5,
         "the secured operator saw {} statuses\n{}",
@@ -871,8 +870,6 @@ fn unsecured_peer_neither_commands_nor_reads_a_secured_node() {
         "{:?}",
         seen.iter().map(|s| s.condition.theta).collect::<Vec<_>>()
     );
-    drop(status);
-    drop(onode);
     assert_eq!(node.term(), 0);
     assert_eq!(hw.term(), 0);
 }
@@ -898,12 +895,7 @@ fn pause_client(
     ros2_client::Node,
     Result<ros2_client::Client<SetBoolRequest, SetBoolResponse>, String>,
 ) {
-    let mut n = ctx
-        .new_node(
-            dds::node_name("/", &format!("crossym_{tag}")).unwrap(),
-            ros2_client::NodeOptions::new().enable_rosout(false),
-        )
-        .unwrap();
+    let mut n = plain_node(ctx, tag);
     let qos = dds::qos_reliable(10);
     let c = n
         .create_client(
@@ -1055,4 +1047,285 @@ fn enforce_refuses_bad_files_and_permissive_warns() {
         "{text}"
     );
     assert_eq!(n.term(), 0);
+}
+
+/// At least `n` statuses of the node `/crossym` in `domain`, as a secured operator of `ks`
+/// reads them (within 20 s).
+fn operator_statuses(domain: u16, ks: &Path, n: usize) -> Vec<crossym::msg::Status> {
+    let ctx = secured_context(domain, ks, "/crossym/operator").expect("operator participant");
+    let mut onode = plain_node(&ctx, "operator");
+    let status = dds::subscription::<crossym::msg::Status>(
+        &mut onode,
+        "/crossym/status",
+        dds::qos_reliable(100),
+    )
+    .expect("the operator may read the status");
+    let t0 = Instant::now();
+    let mut seen = Vec::new();
+    while seen.len() < n && t0.elapsed() < Duration::from_secs(20) {
+        while let Ok(Some((s, _))) = status.take() {
+            seen.push(s);
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    seen
+}
+
+/// (f) An unsecured peer (Cyclone DDS, no credentials) calls `~/pause` (SetBool true, written
+/// on `rq/crossym/pauseRequest` as a plain DDS sample). Against an unsecured node the call
+/// works — the node answers, pauses and says so on `~/status` (seen first, in this test);
+/// against a secured node it gets no answer, no status, and the node never pauses: a
+/// secured operator reads it running, not paused. The node logs the unprotected messages
+/// it dropped.
+#[test]
+fn unsecured_peer_cannot_pause_a_secured_node() {
+    let dir = common::temp_dir("sec-pause-open");
+    let (mut node, mut hw, node_log) = node_and_robot(196, None, &dir);
+    let v = attack_peer(196, 6.0, &["--pause"]);
+    let n = |v: &serde_json::Value, k: &str| v[k].as_u64().unwrap_or(0);
+    let text = std::fs::read_to_string(&node_log).unwrap();
+    assert!(
+        n(&v, "replies") > 0 && n(&v, "paused") > 0 && text.contains("~/pause true from"),
+        "the unsecured node was not paused by the unsecured peer: {v}\n{}",
+        common::log_tail(&node_log)
+    );
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+
+    let domain = 197;
+    let ks = shipped_keystore(domain, "sec-pause-attack");
+    let dir = common::temp_dir("sec-pause-secured");
+    let (mut node, mut hw, node_log) = node_and_robot(domain, Some(&ks), &dir);
+    let v = attack_peer(domain, 6.0, &["--pause"]);
+    assert!(n(&v, "sent") >= 20, "{v}");
+    assert_eq!(
+        (n(&v, "replies"), n(&v, "statuses"), n(&v, "paused")),
+        (0, 0, 0),
+        "the unsecured peer reached the secured node's ~/pause: {v}"
+    );
+    let text = std::fs::read_to_string(&node_log).unwrap();
+    assert!(
+        !text.contains("~/pause"),
+        "the secured node served the unsecured peer's ~/pause ({v})\n{text}"
+    );
+    // The node's log names what it refused: RustDDS drops the peer's unprotected discovery
+    // (SEDP) in a domain whose governance protects RTPS, at ERROR.
+    assert!(
+        text.contains("Received an unprotected message containing a writer submessage"),
+        "the secured node did not log the unsecured peer\n{}",
+        common::log_tail(&node_log)
+    );
+    let seen = operator_statuses(domain, &ks, 5);
+    assert!(
+        seen.len() >= 5 && seen.iter().all(|s| !s.paused),
+        "the secured operator saw {} statuses, paused: {:?}\n{}",
+        seen.len(),
+        seen.iter().map(|s| s.paused).collect::<Vec<_>>(),
+        common::log_tail(&node_log)
+    );
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
+}
+
+/// Replaces the certificate of `enclave` (e.g. `/crossym/operator`) in `ks` by one for the
+/// same key and subject, signed by the keystore's identity CA, that expired in 2021
+/// (`openssl ca` with explicit dates: `openssl x509` 3.0 has no `-not_after`).
+fn expire_certificate(ks: &Path, enclave: &str) {
+    let dir = ks.join("enclaves").join(enclave.trim_start_matches('/'));
+    let work = common::temp_dir("sec-expire-ca");
+    std::fs::write(work.join("index.txt"), "").unwrap();
+    std::fs::write(work.join("serial"), "1000\n").unwrap();
+    std::fs::write(
+        work.join("ca.cnf"),
+        format!(
+            "[ca]\ndefault_ca = a\n[a]\ndatabase = {0}/index.txt\nnew_certs_dir = {0}\n\
+             serial = {0}/serial\ndefault_md = sha256\npolicy = p\nunique_subject = no\n\
+             [p]\ncommonName = supplied\n",
+            work.display()
+        ),
+    )
+    .unwrap();
+    let openssl = |args: &[&str]| {
+        let o = Command::new("openssl")
+            .args(args)
+            .output()
+            .expect("openssl starts");
+        assert!(
+            o.status.success(),
+            "openssl {args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let csr = s(&work.join("req.pem"));
+    let cert = s(&dir.join("cert.pem"));
+    let key = s(&dir.join("key.pem"));
+    openssl(&[
+        "x509",
+        "-x509toreq",
+        "-in",
+        &cert,
+        "-signkey",
+        &key,
+        "-out",
+        &csr,
+    ]);
+    std::fs::remove_file(&cert).unwrap();
+    openssl(&[
+        "ca",
+        "-batch",
+        "-notext",
+        "-preserveDN",
+        "-config",
+        &s(&work.join("ca.cnf")),
+        "-cert",
+        &s(&ks.join("public/ca.cert.pem")),
+        "-keyfile",
+        &s(&ks.join("private/ca.key.pem")),
+        "-startdate",
+        "20200101000000Z",
+        "-enddate",
+        "20210101000000Z",
+        "-in",
+        &csr,
+        "-out",
+        &cert,
+    ]);
+}
+
+/// `openssl verify -CAfile CA CERT`'s output (its verdict, or the error).
+fn openssl_verify(ca: &Path, cert: &Path) -> String {
+    let o = Command::new("openssl")
+        .arg("verify")
+        .arg("-CAfile")
+        .arg(ca)
+        .arg(cert)
+        .output()
+        .expect("openssl starts");
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// A secured peer of `ks` in `domain` for up to `limit`: as `/crossym/operator` it calls
+/// `~/pause` with `data` until answered, and with `condition` also as `/crossym/demo` it
+/// publishes a condition (θ 0.5, λ 0.8, σ 1) every 200 ms. The answer, if one came.
+fn secured_peer(
+    domain: u16,
+    ks: &Path,
+    data: bool,
+    condition: bool,
+    limit: Duration,
+) -> Option<SetBoolResponse> {
+    let octx = secured_context(domain, ks, "/crossym/operator").expect("operator participant");
+    let (_onode, client) = pause_client(&octx, "operator");
+    let client = client.expect("the operator may call ~/pause");
+    let dctx = secured_context(domain, ks, "/crossym/demo").expect("demo participant");
+    let mut dnode = plain_node(&dctx, "demo");
+    let conditions = dds::publisher::<crossym::msg::SymmetryCondition>(
+        &mut dnode,
+        "/crossym/symmetry_condition",
+        dds::qos_reliable(10),
+    )
+    .expect("the demo may publish conditions");
+    let t0 = Instant::now();
+    while t0.elapsed() < limit {
+        let _ = client.send_request(SetBoolRequest { data });
+        if condition {
+            let _ = conditions.publish(crossym::msg::SymmetryCondition {
+                theta: 0.5,
+                scale: 0.8,
+                reflection: 1,
+                ..Default::default()
+            });
+        }
+        let t1 = Instant::now();
+        while t1.elapsed() < Duration::from_millis(200) {
+            if let Ok(Some((_, r))) = client.receive_response() {
+                return Some(r);
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+    None
+}
+
+/// (g) Peers with credentials the node's identity CA does not vouch for, against a running
+/// secured node: a whole keystore of another CA (its own governance and permissions, all
+/// valid under that CA), and the node's own keystore with the operator's and the demo's
+/// certificates replaced by expired ones signed by the right CA. Each runs secured (RustDDS
+/// checks its own certificate against its own identity CA only), calls `~/pause` and
+/// publishes a condition for 8 s: no answer, the node neither pauses nor applies the
+/// condition, and it logs why it refused each (`Certificate signature verification
+/// failure`, `Certificate not valid now`).
+/// Seen working first: the keystore's own operator is answered by the same node.
+#[test]
+fn foreign_ca_or_expired_certificate_is_refused_by_a_running_node() {
+    let domain = 198;
+    let ks = shipped_keystore(domain, "sec-cert");
+    let foreign = shipped_keystore(domain, "sec-cert-foreign");
+    let expired = common::temp_dir("sec-cert-expired").join("keystore");
+    copy_keystore(&ks, &expired);
+    for e in ["/crossym/operator", "/crossym/demo"] {
+        expire_certificate(&expired, e);
+    }
+    // What openssl says of the peers' certificates.
+    let ca = ks.join("public/identity_ca.cert.pem");
+    let v = openssl_verify(&ca, &expired.join("enclaves/crossym/operator/cert.pem"));
+    assert!(v.contains("certificate has expired"), "{v}");
+    let v = openssl_verify(&ca, &foreign.join("enclaves/crossym/operator/cert.pem"));
+    assert!(!v.contains(": OK"), "{v}");
+
+    let dir = common::temp_dir("sec-cert-run");
+    let (mut node, mut hw, node_log) = node_and_robot(domain, Some(&ks), &dir);
+    // The keystore's own operator is answered (~/pause false: the node stays unpaused; no
+    // condition, so the node keeps the default one).
+    let answer = secured_peer(domain, &ks, false, false, Duration::from_secs(30));
+    assert!(
+        answer.is_some_and(|a| a.success),
+        "the node's own operator got no answer\n{}",
+        common::log_tail(&node_log)
+    );
+    for (what, store) in [
+        ("a foreign CA", &foreign),
+        ("an expired certificate", &expired),
+    ] {
+        let answer = secured_peer(domain, store, true, true, Duration::from_secs(8));
+        assert!(
+            answer.is_none(),
+            "a peer with {what} was answered: {answer:?}\n{}",
+            common::log_tail(&node_log)
+        );
+    }
+    let text = std::fs::read_to_string(&node_log).unwrap();
+    assert!(
+        !text.contains("~/pause true") && !text.contains("symmetry condition accepted"),
+        "the node obeyed a refused peer\n{text}"
+    );
+    // RustDDS logs each refused handshake at ERROR. Which side verifies first is fixed by
+    // the subjects (a participant's GUID prefix starts with a hash of its certificate's
+    // subject; the larger initiates): the operator's certificate reaches the node in a
+    // request, the demo's in a reply, so the node checks both of each peer.
+    for why in [
+        "Certificate signature verification failure",
+        "Certificate not valid now: \"CN=/crossym/operator\"",
+        "Certificate not valid now: \"CN=/crossym/demo\"",
+    ] {
+        assert!(
+            text.contains(why),
+            "the node did not log a refusal ({why})\n{}",
+            common::log_tail(&node_log)
+        );
+    }
+    let seen = operator_statuses(domain, &ks, 5);
+    assert!(
+        seen.len() >= 5 && seen.iter().all(|s| !s.paused && s.condition.theta == 0.0),
+        "{} statuses\n{}",
+        seen.len(),
+        common::log_tail(&node_log)
+    );
+    assert_eq!(node.term(), 0);
+    assert_eq!(hw.term(), 0);
 }

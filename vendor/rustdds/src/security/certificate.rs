@@ -127,6 +127,24 @@ impl Certificate {
       .map_err(|e| security_error(&format!("Signature verification failure: {e:?}")))
   }
 
+  // Verify that the current time is within `self`'s validity period
+  // (notBefore ..= notAfter): RFC 5280 path validation, which the DDS Security
+  // spec's "verify Cert with the configured Identity CA" implies (Fast DDS and
+  // Cyclone DDS check it with X509_verify_cert). crossym's patch: upstream did
+  // not check it, so an expired identity certificate authenticated.
+  pub fn verify_validity_now(&self) -> SecurityResult<()> {
+    if self.cert.time_constraints_valid(None) {
+      Ok(())
+    } else {
+      Err(security_error(&format!(
+        "Certificate not valid now: {:?} is valid from {} to {}",
+        self.subject_name.serialize(),
+        self.cert.validity_not_before(),
+        self.cert.validity_not_after()
+      )))
+    }
+  }
+
   // Verify that `self` was signed by `other` Certificate
   // e.g.
   // `someones_identity.verify_signed_by_certificate( certificate_authority )`

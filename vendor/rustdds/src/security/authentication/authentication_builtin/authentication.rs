@@ -534,6 +534,8 @@ impl Authentication for AuthenticationBuiltin {
 
     // Verify that 1's identity cert checks out against CA.
     cert1.verify_signed_by_certificate(&local_info.identity_ca)?;
+    // ... and is valid now (crossym's patch: expired certificates authenticated).
+    cert1.verify_validity_now()?;
 
     // Verify that the remote GUID is as specified by the spec
     let remote_pdata =
@@ -724,6 +726,8 @@ impl Authentication for AuthenticationBuiltin {
 
         // Verify that 2's identity cert checks out against CA.
         cert2.verify_signed_by_certificate(&local_info.identity_ca)?;
+        // ... and is valid now (crossym's patch: expired certificates authenticated).
+        cert2.verify_validity_now()?;
 
         // Verify that the remote GUID is as specified by the spec.
         // Note that spec does say that this check needs to be done here. But it seems
