@@ -556,6 +556,11 @@ ros_message!(
         ("locked_events", "uint64"),
         ("locked_joint", "string"),
         ("command_subscribers", "int32"),
+        ("late_ticks", "uint64"),
+        ("missed_ticks", "uint64"),
+        ("period_late_ticks", "uint32"),
+        ("period_missed_ticks", "uint32"),
+        ("tick_late_max_us", "float64"),
     ]
 );
 
