@@ -141,9 +141,13 @@ fn first_messages(
 ) -> Result<(Vec<usize>, i8), ScenarioError> {
     let mut map: Option<Vec<usize>> = None;
     let deadline = Instant::now() + discovery_timeout;
-    let (mut have_js, mut have_status) = (false, false);
+    // The node's status, and one saying it sees the robot's joint states: each pair of
+    // participants discovers (and, secured, exchanges keys) on its own, so the node may
+    // hear this scenario before it hears the robot.
+    let (mut have_js, mut have_status, mut node_sees_robot) = (false, false, false);
     let mut last_code = 0i8;
-    while !(have_js && have_status) {
+    let stale = crossym_control::node::StatusCode::StaleJointStates.value();
+    while !(have_js && node_sees_robot) {
         if Instant::now() > deadline {
             return Err(ScenarioError::Timeout {
                 what: format!(
@@ -151,7 +155,11 @@ fn first_messages(
                     topics.joint_states,
                     if have_js { "seen" } else { "never seen" },
                     topics.status,
-                    if have_status { "seen" } else { "never seen" },
+                    match (have_status, node_sees_robot) {
+                        (false, _) => "never seen",
+                        (true, false) => "seen, but the node never saw joint states",
+                        (true, true) => "seen",
+                    },
                 ),
             });
         }
@@ -163,6 +171,7 @@ fn first_messages(
         }
         while let Ok(Some((s, _))) = status_sub.take() {
             have_status = true;
+            node_sees_robot = s.joint_state_age_s >= 0.0 && s.code != stale;
             last_code = s.code;
         }
         std::thread::sleep(Duration::from_millis(5));
