@@ -106,7 +106,7 @@ pub struct Run {
 /// (recording into `out/bag`, replaced) with the settings' config, policy and plant, in the
 /// DDS domain of `ROS_DOMAIN_ID`, localhost only; their logs go to `out/mock_hw.log` and
 /// `out/node.log`. Under SROS2's variables (inherited by the children) each process runs
-/// as its enclave: [`NODE_ENCLAVE`], [`MOCK_HW_ENCLAVE`], this one [`DEMO_ENCLAVE`].
+/// as its enclave: `/crossym/node`, `/crossym/mock_hw`, this one `/crossym/demo`.
 pub fn start(s: &DemoSettings, exe: &Path) -> Result<Started, DemoError> {
     std::fs::create_dir_all(&s.out).map_err(DemoError::io("creating", &s.out))?;
     let mut settings = DdsSettings::from_env()?.with_enclave(Some(DEMO_ENCLAVE));
@@ -168,7 +168,7 @@ impl Started {
     }
 
     /// Under SROS2 (`ROS_SECURITY_ENABLE=true`): how the demo's own participant runs
-    /// (secured as [`DEMO_ENCLAVE`], or the permissive fallback's warning); `None` without.
+    /// (secured as `/crossym/demo`, or the permissive fallback's warning); `None` without.
     pub fn security(&self) -> Option<String> {
         let mode = self.settings.security_mode().ok()?;
         self.settings.security.enable.then(|| mode.describe())
