@@ -86,6 +86,21 @@ impl StatusCode {
         }
     }
 
+    /// Whether a tick with this code is news an operator hears at once (`~/status` published
+    /// early, [`super::StatusPeriod::escalated`]): not the filter's shaping (`NO_WARNING`,
+    /// `JOINT_BOUND`, `DECELERATE_FOR_*`) nor the node's own recovery
+    /// (`RESTARTED_FROM_MEASURED`), which wait for the period's end.
+    pub fn is_news(self) -> bool {
+        !matches!(
+            self,
+            StatusCode::NoWarning
+                | StatusCode::JointBound
+                | StatusCode::DecelerateForSingularity
+                | StatusCode::DecelerateForCollision
+                | StatusCode::RestartedFromMeasured
+        )
+    }
+
     /// Rank of the code for the worst code of a status period (0 = `NO_WARNING`; higher is
     /// worse; every code its own rank): faults of the node, then the robot not doing what it
     /// is told, then inputs, then the operator's states, then shaping by the filter.

@@ -136,11 +136,9 @@ impl StatusPeriod {
     /// node's own recovery: they wait for the period's end (its code and counts).
     pub fn escalated(&self) -> bool {
         !self.early
-            && self.worst.is_some_and(|w| {
-                w.severity() > self.reported
-                    && w.severity() >= StatusCode::HaltForSingularity.severity()
-                    && w != StatusCode::RestartedFromMeasured
-            })
+            && self
+                .worst
+                .is_some_and(|w| w.severity() > self.reported && w.is_news())
     }
 
     /// Starts the next period at `totals`, after the status of this one was published
