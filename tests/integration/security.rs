@@ -728,6 +728,15 @@ fn attack(domain: u16, seconds: f64) -> (u64, u64, u64, String) {
 
 /// A DDS participant of this process in `domain`, secured as `enclave` of `ks` (Enforce).
 fn secured_context(domain: u16, ks: &Path, enclave: &str) -> Result<ros2_client::Context, String> {
+    // RustDDS's warnings and errors of this process's participants (the peer's side of a
+    // handshake or key exchange), captured with the test's output: shown when it fails
+    // (CI 2026-12-05: an operator got no answer for 30 s while the node's log showed its
+    // keys registered; the operator's side was not logged).
+    let _ = env_logger::Builder::new()
+        .parse_filters("rustdds=warn")
+        .format_timestamp_millis()
+        .is_test(true)
+        .try_init();
     DdsSettings {
         domain_id: domain,
         range: DiscoveryRange::Localhost,
@@ -1307,18 +1316,23 @@ fn foreign_ca_or_expired_certificate_is_refused_by_a_running_node() {
     // RustDDS logs each refused handshake at ERROR. Which side verifies first is fixed by
     // the subjects (a participant's GUID prefix starts with a hash of its certificate's
     // subject; the larger initiates): the operator's certificate reaches the node in a
-    // request, the demo's in a reply, so the node checks both of each peer.
-    for why in [
-        "Certificate signature verification failure",
-        "Certificate not valid now: \"CN=/crossym/operator\"",
-        "Certificate not valid now: \"CN=/crossym/demo\"",
-    ] {
-        assert!(
-            text.contains(why),
-            "the node did not log a refusal ({why})\n{}",
-            common::log_tail(&node_log)
-        );
-    }
+    // request, the demo's in a reply. The node must have refused the foreign CA's and an
+    // expired certificate by their own faults: at least one of the two expired ones, since
+    // under load a handshake reply can fail to reach the node at all (seen once in 3 runs
+    // of the suite, 2026-12-05: the demo re-sent its reply every second, the node logged
+    // none) — that peer then never authenticates either, which the checks above show.
+    assert!(
+        text.contains("Certificate signature verification failure"),
+        "the node did not log the foreign CA's refusal\n{}",
+        common::log_tail(&node_log)
+    );
+    assert!(
+        ["operator", "demo"]
+            .iter()
+            .any(|e| text.contains(&format!("Certificate not valid now: \"CN=/crossym/{e}\""))),
+        "the node did not log an expired certificate's refusal\n{}",
+        common::log_tail(&node_log)
+    );
     let seen = operator_statuses(domain, &ks, 5);
     assert!(
         seen.len() >= 5 && seen.iter().all(|s| !s.paused && s.condition.theta == 0.0),
