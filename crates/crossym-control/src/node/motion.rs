@@ -241,6 +241,17 @@ impl MotionSupervisor {
         }
     }
 
+    /// Joint `j`'s band (module docs): a fraction of the commanded motion for a joint
+    /// commanded to move (`fast_min` finite), `2 · still` otherwise.
+    fn band(&self, j: usize) -> f64 {
+        let wide = self.s.still_ratio * self.fast_min[j] * self.s.window_s;
+        if wide.is_finite() {
+            wide.clamp(self.s.still, 2.0 * self.s.still)
+        } else {
+            2.0 * self.s.still
+        }
+    }
+
     /// A new measurement `q` at `t_s`: what it shows.
     pub fn measure(&mut self, t_s: f64, q: &[f64]) -> Motion {
         if !self.s.enabled {
@@ -269,16 +280,8 @@ impl MotionSupervisor {
         let fast_before = t_s - self.s.window_s - self.delay_s;
         let lock_still = self.s.window_s + 2.0 * self.s.response_s;
         for (j, &qj) in q.iter().enumerate() {
-            // The band (module docs): a fraction of the commanded motion for a joint
-            // commanded to move (`fast_min` finite), `2 · still` otherwise. A NaN anchor (no
-            // measurement yet) re-anchors.
-            let wide = self.s.still_ratio * self.fast_min[j] * self.s.window_s;
-            let band = if wide.is_finite() {
-                wide.clamp(self.s.still, 2.0 * self.s.still)
-            } else {
-                2.0 * self.s.still
-            };
-            let within = (qj - self.anchor[j]).abs() <= band;
+            // A NaN anchor (no measurement yet) re-anchors.
+            let within = (qj - self.anchor[j]).abs() <= self.band(j);
             let fast = self.fast_since[j] <= fast_before;
             let creeps =
                 fast && self.speed_est[j] < (self.s.still_ratio * self.fast_min[j]).min(creep_cap);
