@@ -17,7 +17,10 @@
 #   bash tests/ros2/build_package.sh jazzy|kilted
 #
 # cargo builds with CROSSYM_CARGO_PROFILE=dev into the repository's target/, so after the
-# usual `cargo build` there is nothing to compile. No network needed; ros2 run / ros2 launch
+# usual `cargo build` there is nothing to compile. CROSSYM_MSGS_UNDERLAY=DIR (a prefix holding
+# crossym_msgs, e.g. build_msgs.sh's merged install target/ros2/ws-DISTRO/install):
+# crossym_msgs is taken from there instead of being built again, and only crossym is built
+# (it only exec-depends on crossym_msgs); .ci/run does this. No network needed; ros2 run / ros2 launch
 # are not run (no ros2 CLI and no launch_ros on PyPI).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -40,17 +43,28 @@ flock 9
 ln -sfn "$root/msgs" "$ws/src/crossym_msgs"
 ln -sfn "$root/ros/crossym" "$ws/src/crossym"
 
+paths=("$ws/src/crossym_msgs" "$ws/src/crossym")
+msgs_install="$ws/install/crossym_msgs"
+if [ -n "${CROSSYM_MSGS_UNDERLAY:-}" ]; then
+    msgs_install="$CROSSYM_MSGS_UNDERLAY"
+    [ -f "$msgs_install/share/ament_index/resource_index/packages/crossym_msgs" ] || {
+        echo "build_package.sh: no crossym_msgs in CROSSYM_MSGS_UNDERLAY=$CROSSYM_MSGS_UNDERLAY: run \`bash tests/ros2/build_msgs.sh $d\`" >&2
+        exit 1
+    }
+    paths=("$ws/src/crossym")
+fi
+
 t0=$SECONDS
 (
     cd "$ws"
     export PATH="$venv/bin:$PATH" AMENT_PREFIX_PATH="$venv" CMAKE_PREFIX_PATH="$venv"
     colcon --log-base "$ws/log" build \
-        --paths "$ws/src/crossym_msgs" "$ws/src/crossym" --build-base "$ws/build" --install-base "$ws/install" \
+        --paths "${paths[@]}" --build-base "$ws/build" --install-base "$ws/install" \
         --event-handlers console_direct- \
         --cmake-args -DBUILD_TESTING=OFF "-DPython3_EXECUTABLE=$venv/bin/python3" \
             -DCROSSYM_CARGO_PROFILE=dev "-DCROSSYM_CARGO_FEATURES=${CROSSYM_CARGO_FEATURES:-}" --no-warn-unused-cli -Wno-dev -Wno-deprecated
 ) || { echo "build_package.sh: colcon build failed; logs in $ws/log/latest_build" >&2; exit 1; }
-echo "build_package.sh $d: colcon built crossym_msgs and crossym in $((SECONDS - t0)) s into $ws/install"
+echo "build_package.sh $d: colcon built $(basename -a "${paths[@]}" | tr '\n' ' ')in $((SECONDS - t0)) s into $ws/install (crossym_msgs from $msgs_install)"
 
 fail() { echo "build_package.sh $d: FAIL: $*" >&2; exit 1; }
 prefix="$ws/install/crossym"
@@ -68,8 +82,8 @@ echo "ok: $launch compiles"
 
 marker="$prefix/share/ament_index/resource_index/packages/crossym"
 [ -f "$marker" ] || fail "$marker is missing"
-[ -f "$ws/install/crossym_msgs/share/ament_index/resource_index/packages/crossym_msgs" ] ||
-    fail "crossym_msgs is not in the ament index of $ws/install/crossym_msgs"
+[ -f "$msgs_install/share/ament_index/resource_index/packages/crossym_msgs" ] ||
+    fail "crossym_msgs is not in the ament index of $msgs_install"
 echo "ok: the ament index names crossym and crossym_msgs"
 
 [ -f "$share/config/ros/crossym.params.yaml" ] || fail "share/crossym/config/ros/crossym.params.yaml is missing"
@@ -87,7 +101,7 @@ echo "ok: ${#configs[@]} installed configs load (crossym info) and their relativ
 
 # The launch file through stub launch/launch_ros modules: the command launch_ros would run.
 launch_args() {
-    AMENT_PREFIX_PATH="$prefix:$ws/install/crossym_msgs" "$venv/bin/python" "$here/launch_args.py" "$@"
+    AMENT_PREFIX_PATH="$prefix:$msgs_install" "$venv/bin/python" "$here/launch_args.py" "$@"
 }
 got="$(launch_args 2>"$ws/launch_args.err")" || { cat "$ws/launch_args.err" >&2; fail "launch_args.py"; }
 [ ! -s "$ws/launch_args.err" ] || { cat "$ws/launch_args.err" >&2; fail "launch_args.py (defaults) warned or set an environment variable"; }
