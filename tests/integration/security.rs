@@ -726,17 +726,21 @@ fn attack(domain: u16, seconds: f64) -> (u64, u64, u64, String) {
     (n("sent"), n("commands"), n("statuses"), v.to_string())
 }
 
-/// A DDS participant of this process in `domain`, secured as `enclave` of `ks` (Enforce).
-fn secured_context(domain: u16, ks: &Path, enclave: &str) -> Result<ros2_client::Context, String> {
-    // RustDDS's warnings and errors of this process's participants (the peer's side of a
-    // handshake or key exchange), captured with the test's output: shown when it fails
-    // (CI 2026-12-05: an operator got no answer for 30 s while the node's log showed its
-    // keys registered; the operator's side was not logged).
+/// RustDDS's warnings and errors of this process's participants (the peer's side of a
+/// handshake or key exchange), captured with each test's output: shown when it fails (CI
+/// 2026-12-05: an operator got no answer for 30 s while the node's log showed its keys
+/// registered; the operator's side was not logged).
+fn capture_rustdds_log() {
     let _ = env_logger::Builder::new()
         .parse_filters("rustdds=warn")
         .format_timestamp_millis()
         .is_test(true)
         .try_init();
+}
+
+/// A DDS participant of this process in `domain`, secured as `enclave` of `ks` (Enforce).
+fn secured_context(domain: u16, ks: &Path, enclave: &str) -> Result<ros2_client::Context, String> {
+    capture_rustdds_log();
     DdsSettings {
         domain_id: domain,
         range: DiscoveryRange::Localhost,
@@ -745,6 +749,30 @@ fn secured_context(domain: u16, ks: &Path, enclave: &str) -> Result<ros2_client:
     }
     .context()
     .map_err(|e| e.to_string())
+}
+
+/// A DDS participant of this process in `domain` secured as `enclave` of `ks` the way any
+/// DDS Security peer builds one: RustDDS given the enclave's files, without crossym's own
+/// start-up checks (a peer with an expired certificate is for the node to refuse; crossym's
+/// tools would not start with it).
+fn raw_secured_context(
+    domain: u16,
+    ks: &Path,
+    enclave: &str,
+) -> Result<ros2_client::Context, String> {
+    use ros2_client::dds::rustdds::{
+        DomainParticipantBuilder, DomainParticipantSecurityConfigFiles as Files,
+    };
+    use std::net::{IpAddr, Ipv4Addr};
+    capture_rustdds_log();
+    ros2_client::set_ros_distro(dds::DEFAULT_DISTRO);
+    let dir = ks.join("enclaves").join(enclave.trim_start_matches('/'));
+    let dp = DomainParticipantBuilder::new(domain)
+        .with_only_networks([IpAddr::V4(Ipv4Addr::LOCALHOST)])
+        .builtin_security(Files::with_ros_default_names(&dir, String::new()))
+        .build()
+        .map_err(|e| e.to_string())?;
+    ros2_client::Context::from_domain_participant(dp).map_err(|e| e.to_string())
 }
 
 /// A node `/crossym_<tag>` of `ctx` (no rosout).
@@ -999,7 +1027,8 @@ fn secured_operator_reaches_the_node() {
 }
 
 /// (d) Enforce with a governance changed after signing: the node does not start, and says
-/// why (RustDDS's signature check, naming the enclave's directory). Permissive with a
+/// why (RustDDS's signature check, naming the enclave's directory). Enforce with the node's
+/// own certificate expired: it does not start, and gives the dates. Permissive with a
 /// keystore that does not exist: the node starts unsecured and warns, naming the missing
 /// keystore; Enforce with it: the node stops at once, naming it.
 #[test]
@@ -1030,6 +1059,23 @@ fn enforce_refuses_bad_files_and_permissive_warns() {
     assert!(
         err.contains("secured participant in domain 192 (enclave /crossym/node")
             && err.contains("does not match"),
+        "{err}"
+    );
+
+    // The node's own certificate expired: refused at start with its dates (before, RustDDS
+    // built the participant and every peer refused it: a node that ran alone, silently).
+    let expired = common::temp_dir("sec-own-expired").join("keystore");
+    copy_keystore(&shipped_keystore(domain, "sec-own-cert"), &expired);
+    expire_certificate(&expired, "/crossym/node");
+    let log = common::temp_dir("sec-own-expired-run").join("node.log");
+    let mut n = common::Proc::spawn(node(&expired, "Enforce"), "node", domain, &log);
+    let code = n.wait(Duration::from_secs(30), &log);
+    let err = std::fs::read_to_string(&log).unwrap();
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("enclave /crossym/node: its identity certificate")
+            && err.contains("not now")
+            && err.contains("crossym security create-enclave"),
         "{err}"
     );
 
@@ -1228,10 +1274,10 @@ fn secured_peer(
     condition: bool,
     limit: Duration,
 ) -> Option<SetBoolResponse> {
-    let octx = secured_context(domain, ks, "/crossym/operator").expect("operator participant");
+    let octx = raw_secured_context(domain, ks, "/crossym/operator").expect("operator participant");
     let (_onode, client) = pause_client(&octx, "operator");
     let client = client.expect("the operator may call ~/pause");
-    let dctx = secured_context(domain, ks, "/crossym/demo").expect("demo participant");
+    let dctx = raw_secured_context(domain, ks, "/crossym/demo").expect("demo participant");
     let mut dnode = plain_node(&dctx, "demo");
     let conditions = dds::publisher::<crossym::msg::SymmetryCondition>(
         &mut dnode,

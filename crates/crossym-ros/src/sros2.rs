@@ -94,6 +94,22 @@ pub enum Sros2Error {
          (docs/guide/security.md)"
     )]
     NotBuilt,
+    /// The enclave's own identity certificate is not valid now (expired, or not yet valid):
+    /// every peer would refuse it.
+    #[error(
+        "enclave {enclave}: its identity certificate {} {why}: every peer's DDS Security \
+         would refuse this participant; make a new one with `crossym security create-enclave` \
+         (docs/guide/security.md)",
+        .cert.display()
+    )]
+    CertificateNotValid {
+        /// The enclave.
+        enclave: String,
+        /// Its `cert.pem`.
+        cert: PathBuf,
+        /// Its validity.
+        why: String,
+    },
     /// An enclave name rcl would not take.
     #[error("enclave {0:?}: an enclave is an absolute name like /crossym/node")]
     EnclaveName(String),
@@ -211,7 +227,8 @@ impl SecurityEnv {
     }
 
     /// What a participant will be: checks the keystore, the enclave directory and its
-    /// files (existence only; RustDDS verifies them when the participant is built).
+    /// files (their existence, and the dates of the enclave's own certificate, which every
+    /// peer checks; RustDDS verifies the rest when the participant is built).
     pub fn resolve(&self) -> Result<SecurityMode, Sros2Error> {
         if !self.enable {
             return Ok(SecurityMode::Off);
@@ -244,11 +261,24 @@ impl SecurityEnv {
             Some(ks) => enclave_dir(ks, &enclave).map_err(missing),
         };
         match (found, self.strategy) {
-            (Ok(dir), strategy) => Ok(SecurityMode::Secured {
-                enclave,
-                dir,
-                strategy,
-            }),
+            (Ok(dir), strategy) => match own_certificate_valid_now(&dir.join("cert.pem")) {
+                Ok(()) => Ok(SecurityMode::Secured {
+                    enclave,
+                    dir,
+                    strategy,
+                }),
+                Err(why) => {
+                    let e = Sros2Error::CertificateNotValid {
+                        enclave: enclave.clone(),
+                        cert: dir.join("cert.pem"),
+                        why,
+                    };
+                    match strategy {
+                        Strategy::Enforce => Err(e),
+                        Strategy::Permissive => Ok(unsecured(e.to_string())),
+                    }
+                }
+            },
             (Err(e), Strategy::Enforce) => Err(e),
             (Err(Sros2Error::Missing { missing, .. }), Strategy::Permissive) => {
                 Ok(unsecured(format!("{} is missing", missing.display())))
@@ -256,6 +286,18 @@ impl SecurityEnv {
             (Err(e), Strategy::Permissive) => Err(e),
         }
     }
+}
+
+/// The participant's own certificate checked as its peers will (its dates); a build without
+/// DDS Security never gets here.
+#[cfg(feature = "security")]
+fn own_certificate_valid_now(cert: &Path) -> Result<(), String> {
+    crate::security::pki::valid_now(cert)
+}
+
+#[cfg(not(feature = "security"))]
+fn own_certificate_valid_now(_cert: &Path) -> Result<(), String> {
+    Ok(())
 }
 
 /// `keystore/enclaves/<enclave>` when it and its six files exist; else the first missing

@@ -168,6 +168,25 @@ pub fn validity(cert: &X509) -> Result<(String, String), SecurityError> {
     ))
 }
 
+/// `Err` when the certificate in the PEM file `path` is outside its dates now, saying them
+/// (`is valid from … to … UTC, not now`): what every peer's DDS Security checks of it at a
+/// handshake. A file that cannot be read as a certificate is `Ok` here: RustDDS refuses it
+/// with its own error when the participant is built.
+pub fn valid_now(path: &Path) -> Result<(), String> {
+    let Some(cert) = std::fs::read(path)
+        .ok()
+        .and_then(|pem| X509::from_pem(&pem).ok())
+    else {
+        return Ok(());
+    };
+    let now = Asn1Time::days_from_now(0).map_err(|e| format!("the time now: {e}"))?;
+    if cert.not_before() <= now && cert.not_after() >= now {
+        return Ok(());
+    }
+    let (from, to) = validity(&cert).map_err(|e| e.to_string())?;
+    Err(format!("is valid from {from} to {to} UTC, not now"))
+}
+
 /// Seconds since the Unix epoch as `YYYY-MM-DDTHH:MM:SS` (UTC; the proleptic Gregorian
 /// calendar, Howard Hinnant's `civil_from_days`).
 pub fn iso_utc(unix: i64) -> String {
