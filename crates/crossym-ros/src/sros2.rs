@@ -425,6 +425,34 @@ mod tests {
         let m = enforce(&node).resolve().unwrap();
         assert_eq!(m.enclave(), Some("/crossym/node"));
         assert!(m.describe().contains("secured as enclave /crossym/node"));
+        expired_own_certificate_stops_enforce_and_warns_permissive(&enclave, &env(&v));
         let _ = std::fs::remove_dir_all(&dir);
     }
+
+    /// The enclave's own certificate expired (issued in 1970 for 3650 days): Enforce stops
+    /// naming its dates; permissive (`permissive`, as the test above) runs unsecured with
+    /// the same words.
+    #[cfg(feature = "security")]
+    fn expired_own_certificate_stops_enforce_and_warns_permissive(
+        enclave: &Path,
+        permissive: &SecurityEnv,
+    ) {
+        let old = crate::security::pki::new_key_and_cert("/crossym/node", None, 0).unwrap();
+        std::fs::write(enclave.join("cert.pem"), old.cert.to_pem().unwrap()).unwrap();
+        let enforce = SecurityEnv {
+            strategy: Strategy::Enforce,
+            ..permissive.clone()
+        };
+        let e = enforce.resolve().unwrap_err().to_string();
+        assert!(
+            e.contains("enclave /crossym/node: its identity certificate")
+                && e.contains("valid from 1969-12-31T00:00:00 to 1979-12-30T00:00:00 UTC, not now"),
+            "{e}"
+        );
+        let w = permissive.resolve().unwrap().warning().expect("a warning");
+        assert!(w.contains("UNSECURED") && w.contains("not now"), "{w}");
+    }
+
+    #[cfg(not(feature = "security"))]
+    fn expired_own_certificate_stops_enforce_and_warns_permissive(_: &Path, _: &SecurityEnv) {}
 }
