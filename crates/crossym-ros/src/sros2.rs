@@ -261,23 +261,14 @@ impl SecurityEnv {
             Some(ks) => enclave_dir(ks, &enclave).map_err(missing),
         };
         match (found, self.strategy) {
-            (Ok(dir), strategy) => match own_certificate_valid_now(&dir.join("cert.pem")) {
-                Ok(()) => Ok(SecurityMode::Secured {
+            (Ok(dir), strategy) => match (own_certificate_valid_now(&enclave, &dir), strategy) {
+                (Ok(()), _) => Ok(SecurityMode::Secured {
                     enclave,
                     dir,
                     strategy,
                 }),
-                Err(why) => {
-                    let e = Sros2Error::CertificateNotValid {
-                        enclave: enclave.clone(),
-                        cert: dir.join("cert.pem"),
-                        why,
-                    };
-                    match strategy {
-                        Strategy::Enforce => Err(e),
-                        Strategy::Permissive => Ok(unsecured(e.to_string())),
-                    }
-                }
+                (Err(e), Strategy::Enforce) => Err(e),
+                (Err(e), Strategy::Permissive) => Ok(unsecured(e.to_string())),
             },
             (Err(e), Strategy::Enforce) => Err(e),
             (Err(Sros2Error::Missing { missing, .. }), Strategy::Permissive) => {
@@ -288,15 +279,20 @@ impl SecurityEnv {
     }
 }
 
-/// The participant's own certificate checked as its peers will (its dates); a build without
-/// DDS Security never gets here.
+/// The participant's own certificate (`DIR/cert.pem` of `enclave`) checked as its peers
+/// will (its dates); a build without DDS Security never gets here.
 #[cfg(feature = "security")]
-fn own_certificate_valid_now(cert: &Path) -> Result<(), String> {
-    crate::security::pki::valid_now(cert)
+fn own_certificate_valid_now(enclave: &str, dir: &Path) -> Result<(), Sros2Error> {
+    let cert = dir.join("cert.pem");
+    crate::security::pki::valid_now(&cert).map_err(|why| Sros2Error::CertificateNotValid {
+        enclave: enclave.to_string(),
+        cert,
+        why,
+    })
 }
 
 #[cfg(not(feature = "security"))]
-fn own_certificate_valid_now(_cert: &Path) -> Result<(), String> {
+fn own_certificate_valid_now(_enclave: &str, _dir: &Path) -> Result<(), Sros2Error> {
     Ok(())
 }
 
