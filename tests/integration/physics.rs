@@ -186,8 +186,8 @@ fn physics_rby1_draws_a_letter_and_the_old_tracking_rule_does_not() {
 }
 
 /// A joint frozen while the robot draws (the robot stops following): the node holds within
-/// a bounded time (more than 2 restarts within 5 s; the first restart once the frozen
-/// joint leaves the 0.6 s lag window) and says so on the terminal and in its status.
+/// a bounded time (more than 2 restarts within 5 s: the lock found, and the tries of a
+/// robot then read as held, each counted) and says so on the terminal and in its status.
 #[test]
 #[ignore = "run by .ci/run on its own (one at a time: real time on 2 cores)"]
 fn physics_rby1_that_stops_following_is_held_and_reported() {

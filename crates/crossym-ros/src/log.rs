@@ -409,7 +409,7 @@ impl StatusWatch {
                 "restarted_from_measured",
                 s.restarts,
                 prev.restarts,
-                "the robot left the envelope of its position commands: commands restarted from the measured state",
+                "commands restarted from the measured state (the envelope of the position commands left, a joint locked, a held robot held again or a controller back: safety.max_restarts counts them)",
                 true,
             ),
             (

@@ -28,7 +28,8 @@ pub(crate) struct Counters {
     pub infeasible_ticks: u64,
     /// Ticks paused by an operator.
     pub paused_ticks: u64,
-    /// Restarts from the measured state (position modes; a controller back counts too).
+    /// Restarts from the measured state (position modes: the envelope left, a joint locked,
+    /// a held robot tried again and held again, a controller back).
     pub restarts: u64,
     /// Ticks held because the robot does not follow.
     pub not_following_ticks: u64,

@@ -17,7 +17,10 @@
 //!   measured state and held there (`ROBOT_HELD`) for `[node.motion] held_dwell_s`, then
 //!   tried again from the measured state: the policy runs, reported `ROBOT_HELD` until a
 //!   joint moves; still held with the commands farther than `tracking_tolerance` from the
-//!   robot, it is held again (a release then finds the commands close to its state).
+//!   robot, it is held again (a release then finds the commands close to its state), and
+//!   that try counts as a restart: a robot held through more than `safety.max_restarts`
+//!   tries within the window (a 3 s hold latched after 2.6 s on the physics robot) latches
+//!   not following.
 //! - **Resume**: a controller back (the command topic matched again) restarts from the
 //!   measured state, counted as a restart.
 //! - **Locked joint**: a joint found locked restarts from the measured state
@@ -383,6 +386,13 @@ impl Supervisor {
             bump(&mut c.held_events);
             self.restart_at_rest(now_s, &i.q, limits);
             *at_rest = true;
+            // Tried again and held again: a restart the robot did not follow, counted (a
+            // robot held for good, e.g. one joint frozen while only it is commanded to
+            // move, latches instead of being tried for ever).
+            if self.held == Held::Probe && self.count_restart(now_s, i.condition_seq, c) {
+                self.held = Held::Clear;
+                return Verdict::Brake(StatusCode::RobotNotFollowing);
+            }
             self.held = Held::Dwell(now_s + self.s.held_dwell_s);
             return Verdict::Brake(StatusCode::RobotHeld);
         }
@@ -398,15 +408,9 @@ impl Supervisor {
         // since the measurement: a jump leaves it anyway.
         let jumped = self.s.window_s > 0.0 && self.jump.jumped(i, &self.history, &self.s);
         let tracks = !self.has_hold || (!locked && !jumped && self.tracks_commands(i));
-        if !tracks {
-            bump(&mut c.restarts);
-            if self.restarts.record(now_s) {
-                // Repeated restarts: the robot does not follow. Hold where the commands are.
-                self.not_following = Some(i.condition_seq);
-                bump(&mut c.not_following_ticks);
-                self.tracking.high_since = None;
-                return Verdict::Brake(StatusCode::RobotNotFollowing);
-            }
+        if !tracks && self.count_restart(now_s, i.condition_seq, c) {
+            // Repeated restarts: the robot does not follow. Hold where the commands are.
+            return Verdict::Brake(StatusCode::RobotNotFollowing);
         }
         let mut restart = None;
         if !self.has_hold || !tracks {
@@ -424,6 +428,19 @@ impl Supervisor {
             .tracking
             .watch(now_s, &self.s, &mut c.tracking_warning_ticks);
         Verdict::Go { restart, lagging }
+    }
+
+    /// Counts a restart at `now_s`; true when it makes more than `max_restarts` within the
+    /// window: the not-following latch is set under `condition_seq`.
+    fn count_restart(&mut self, now_s: f64, condition_seq: u64, c: &mut Counters) -> bool {
+        bump(&mut c.restarts);
+        if !self.restarts.record(now_s) {
+            return false;
+        }
+        self.not_following = Some(condition_seq);
+        bump(&mut c.not_following_ticks);
+        self.tracking.high_since = None;
+        true
     }
 
     /// The motion supervisor on a new joint state (while commands are continued): held,

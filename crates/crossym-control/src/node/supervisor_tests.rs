@@ -300,3 +300,70 @@ fn the_tracking_warning_holds_after_the_window_and_counts() {
     assert!(!w.watch(10.0, &off, &mut count));
     assert_eq!(count, 2);
 }
+
+/// The held robot tried again: the dwell over, the policy commands away from the robot,
+/// which does not move. Returns the verdict of the tick that finds it held again, at `t`.
+fn try_held_robot(sup: &mut Supervisor, c: &mut Counters, t: f64, seq: &mut u64) -> Verdict {
+    assert_eq!(sup.admit(t, 1, c), None, "the dwell is over at {t}");
+    assert!(sup.probing());
+    *seq += 1;
+    let (v, at_rest) = tick(sup, c, &inputs(0.3, t, *seq, 1), t);
+    assert_eq!(
+        (v, at_rest),
+        (GO, true),
+        "tried again from the measured state"
+    );
+    // The policy pulls the command beyond the tolerance; the robot stays where it is.
+    command(sup, t + DT, 0.3 + 2.0 * settings().tolerance);
+    *seq += 1;
+    let i = inputs(0.3, t + 2.0 * DT, *seq, 1);
+    sup.follow(t + 2.0 * DT, &i, &limits(), false, c).0
+}
+
+#[test]
+fn a_robot_held_through_repeated_tries_latches_not_following() {
+    let s = FollowSettings {
+        held_dwell_s: 0.2,
+        ..settings()
+    };
+    let mut sup = Supervisor::new(1, s, MotionSettings::default(), 64);
+    let mut c = Counters::default();
+    let mut seq = 1;
+    tick(&mut sup, &mut c, &inputs(0.3, 0.0, seq, 1), 0.0);
+    sup.held = Held::Dwell(0.2);
+    // Each try held again counts as a restart: the first two brake as held, ...
+    let held = Verdict::Brake(StatusCode::RobotHeld);
+    assert_eq!(try_held_robot(&mut sup, &mut c, 0.2, &mut seq), held);
+    assert_eq!((c.held_events, c.restarts), (1, 1));
+    assert_eq!(sup.q_hold(), &[0.3], "held at the measured state");
+    assert_eq!(try_held_robot(&mut sup, &mut c, 0.5, &mut seq), held);
+    // ... the third within the window (more than max_restarts = 2) latches.
+    assert_eq!(
+        try_held_robot(&mut sup, &mut c, 0.8, &mut seq),
+        NOT_FOLLOWING
+    );
+    assert_eq!((c.held_events, c.restarts), (3, 3));
+    assert_eq!(
+        sup.q_hold(),
+        &[0.3],
+        "the latch holds at the measured state"
+    );
+    assert!(!sup.probing());
+    let i = inputs(0.3, 1.0, seq + 1, 1);
+    assert_eq!(tick(&mut sup, &mut c, &i, 1.0).0, NOT_FOLLOWING);
+    // A release within the tries goes on: the try that moves is no restart.
+    let mut sup = Supervisor::new(1, s, MotionSettings::default(), 64);
+    let mut c = Counters::default();
+    let mut seq = 1;
+    tick(&mut sup, &mut c, &inputs(0.3, 0.0, seq, 1), 0.0);
+    sup.held = Held::Dwell(0.2);
+    assert_eq!(try_held_robot(&mut sup, &mut c, 0.2, &mut seq), held);
+    assert_eq!(sup.admit(0.5, 1, &mut c), None);
+    let (v, _) = tick(&mut sup, &mut c, &inputs(0.3, 0.5, seq + 1, 1), 0.5);
+    assert_eq!(v, GO);
+    command(&mut sup, 0.51, 0.32);
+    let i = inputs(0.32, 0.52, seq + 2, 1);
+    assert_eq!(sup.follow(0.52, &i, &limits(), false, &mut c).0, GO);
+    assert!(!sup.probing(), "released: the robot moved with its command");
+    assert_eq!(c.restarts, 1, "one try held again, the release none");
+}
