@@ -11,6 +11,23 @@ use crossym::data::demonstrations::Demonstrations;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
+/// The highest ROS_DOMAIN_ID a test may use: `tools/netns-run` hands out ephemeral ports
+/// from 60000 on, above every DDS port of domains 0–209 (7400 + 250·domain + 0..249). A
+/// socket on an ephemeral port that is another domain's port receives that domain's traffic
+/// (Cyclone DDS binds its unicast ports there): a peer in domain 197 once paused a node in 102.
+pub const MAX_DOMAIN: u16 = 209;
+
+/// The lowest ephemeral port of this network namespace (`net.ipv4.ip_local_port_range`).
+pub fn lowest_ephemeral_port() -> u32 {
+    let range = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .expect("/proc/sys/net/ipv4/ip_local_port_range");
+    range
+        .split_whitespace()
+        .next()
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("ip_local_port_range: {range:?}"))
+}
+
 /// The crate root.
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -240,6 +257,11 @@ pub struct Proc {
 
 impl Proc {
     pub fn spawn(mut cmd: Command, name: &str, domain: u16, log: &Path) -> Proc {
+        assert!(
+            domain <= MAX_DOMAIN,
+            "{name}: domain {domain} above {MAX_DOMAIN}, whose ports tools/netns-run keeps \
+             clear of ephemeral ports"
+        );
         let f = std::fs::File::create(log).unwrap();
         let child = cmd
             .env("ROS_DOMAIN_ID", domain.to_string())

@@ -1,7 +1,9 @@
 //! Real DDS traffic between processes (run inside `tools/netns-run`, as `.ci/run`
 //! does): the node and the mock hardware as child processes, the closed loop driven by the
 //! library's scenario runner, and an independent Python peer (PyPI `cyclonedds`).
-//! Each test uses its own ROS_DOMAIN_ID so tests running in parallel do not see each other.
+//! Each test uses its own ROS_DOMAIN_ID (at most `common::MAX_DOMAIN`, whose ports
+//! `tools/netns-run` keeps clear of ephemeral ports) so tests running in parallel do not see
+//! each other.
 //!
 //! No wall-clock rate or duration is asserted (a loaded CI machine would fail it; speed is
 //! measured by the criterion benches): tests wait, with generous deadlines, until enough
@@ -23,6 +25,62 @@ use crossym::symmetry::compose::Condition;
 
 use crate::common;
 use crate::common::{Proc, Watch};
+
+/// The tests' namespace hands out ephemeral ports above every DDS port of every domain a
+/// test may use (`common::MAX_DOMAIN`): an ephemeral socket on another domain's port would
+/// receive that domain's discovery, and tests running side by side would talk to each other
+/// (a Cyclone DDS peer in domain 197 paused a node in domain 102 before `tools/netns-run`
+/// moved the range).
+#[test]
+fn ephemeral_ports_stay_clear_of_every_test_domain() {
+    let lowest = common::lowest_ephemeral_port();
+    let highest_dds_port = 7400 + 250 * u32::from(common::MAX_DOMAIN) + 249;
+    assert!(
+        lowest > highest_dds_port,
+        "ephemeral ports start at {lowest}, below domain {}'s DDS port {highest_dds_port}: run the \
+         tests inside tools/netns-run (it sets ip_local_port_range to 60000 65535)",
+        common::MAX_DOMAIN
+    );
+}
+
+/// A node whose domain's UDP ports lie inside the machine's ephemeral ports warns at start;
+/// one whose ports lie below does not. Each runs in a network namespace of its own with
+/// Linux's default range (32768–60999: domain 150's ports 44900–45149 inside, domain 20's
+/// 12400–12649 below), so neither reaches another test.
+#[test]
+fn a_domain_inside_the_ephemeral_ports_is_warned_about_at_start() {
+    let setup = "echo '32768 60999' >/proc/sys/net/ipv4/ip_local_port_range && exec \"$@\"";
+    for (domain, warned) in [(150u16, true), (20, false)] {
+        let dir = tmp_dir(&format!("ephemeral-{domain}"));
+        let log = dir.join("node.log");
+        let mut c = Command::new(common::root().join("tools/netns-run"));
+        c.args(["bash", "-c", setup, "netns"])
+            .arg(exe())
+            .args(["node", "--config"])
+            .arg(letters_config());
+        let mut node = Proc::spawn(c, "node", domain, &log);
+        let started = Instant::now();
+        let text = loop {
+            let text = std::fs::read_to_string(&log).unwrap_or_default();
+            if text.contains("DDS Security") || started.elapsed() > Duration::from_secs(30) {
+                break text;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        assert!(
+            text.contains("DDS Security"),
+            "the node did not start:\n{text}"
+        );
+        let line = format!("ROS_DOMAIN_ID {domain} uses UDP ports");
+        assert_eq!(
+            text.contains(&line)
+                && text.contains("inside this machine's ephemeral ports 32768–60999"),
+            warned,
+            "domain {domain}:\n{text}"
+        );
+        assert_eq!(node.term(), 0, "{text}");
+    }
+}
 
 fn exe() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_crossym"))

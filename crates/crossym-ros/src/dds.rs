@@ -104,6 +104,48 @@ pub fn parse_distro(name: &str) -> Result<RosDistro, String> {
         })
 }
 
+/// The UDP ports a participant of `domain_id` may bind under RTPS's default port mapping
+/// (PB 7400 + DG 250·domain, then the discovery and user ports of participants 0–119:
+/// offsets 0–249).
+pub fn domain_ports(domain_id: u16) -> std::ops::RangeInclusive<u32> {
+    let base = 7400 + 250 * u32::from(domain_id);
+    base..=base + 249
+}
+
+/// This machine's ephemeral UDP/TCP ports (Linux `net.ipv4.ip_local_port_range` of the
+/// network namespace), if readable.
+pub fn ephemeral_ports() -> Option<std::ops::RangeInclusive<u32>> {
+    let text = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range").ok()?;
+    let mut it = text.split_whitespace().map(str::parse::<u32>);
+    match (it.next(), it.next()) {
+        (Some(Ok(lo)), Some(Ok(hi))) if lo <= hi => Some(lo..=hi),
+        _ => None,
+    }
+}
+
+/// A warning when `domain_id`'s ports overlap the `ephemeral` ports: any program's socket
+/// may be handed one of them and then receives this domain's discovery, or sends another
+/// domain's into it (ROS 2 advises domains 0–101 on Linux's default 32768–60999).
+pub fn ephemeral_overlap(
+    domain_id: u16,
+    ephemeral: &std::ops::RangeInclusive<u32>,
+) -> Option<String> {
+    let ports = domain_ports(domain_id);
+    let overlap = ports.start() <= ephemeral.end() && ephemeral.start() <= ports.end();
+    overlap.then(|| {
+        format!(
+            "ROS_DOMAIN_ID {domain_id} uses UDP ports {}–{}, inside this machine's ephemeral \
+             ports {}–{}: another program's socket may take one and carry another domain's \
+             traffic into this one; choose a domain whose ports lie outside (0–101 on Linux's \
+             default range) or move net.ipv4.ip_local_port_range",
+            ports.start(),
+            ports.end(),
+            ephemeral.start(),
+            ephemeral.end()
+        )
+    })
+}
+
 /// Domain, discovery range, ROS distribution and SROS2 security of a participant.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DdsSettings {
@@ -414,6 +456,32 @@ pub async fn shutdown_signal() -> std::io::Result<()> {
         _ = term.recv() => {}
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod port_tests {
+    use super::*;
+
+    #[test]
+    fn a_domain_in_the_ephemeral_range_is_warned_about_and_one_below_is_not() {
+        let linux = 32768..=60999;
+        assert_eq!(domain_ports(0), 7400..=7649);
+        // Domain 100 ends at 32649; 101 reaches 32899, past 32768.
+        assert_eq!(ephemeral_overlap(100, &linux), None);
+        let w = ephemeral_overlap(101, &linux).expect("101 overlaps");
+        assert!(
+            w.contains("32650–32899") && w.contains("32768–60999"),
+            "{w}"
+        );
+        assert!(ephemeral_overlap(197, &linux).is_some());
+        // Domain 214 starts at 60900 (inside), 215 at 61150 (above).
+        assert!(ephemeral_overlap(214, &linux).is_some());
+        assert_eq!(ephemeral_overlap(215, &linux), None);
+        // tools/netns-run's range keeps domains 0-209 clear.
+        let netns = 60000..=65535;
+        assert_eq!(ephemeral_overlap(209, &netns), None);
+        assert!(ephemeral_overlap(210, &netns).is_some());
+    }
 }
 
 #[cfg(test)]

@@ -234,6 +234,10 @@ fn open_log(
         None => Severity::Info,
     };
     log.log(severity, &security.describe());
+    let ephemeral = dds::ephemeral_ports();
+    if let Some(w) = ephemeral.and_then(|e| dds::ephemeral_overlap(settings.domain_id, &e)) {
+        log.log(Severity::Warn, &w);
+    }
     Ok(log)
 }
 
