@@ -17,17 +17,6 @@ use rand::{Rng, SeedableRng};
 /// (Cyclone DDS binds its unicast ports there): a peer in domain 197 once paused a node in 102.
 pub const MAX_DOMAIN: u16 = 209;
 
-/// The lowest ephemeral port of this network namespace (`net.ipv4.ip_local_port_range`).
-pub fn lowest_ephemeral_port() -> u32 {
-    let range = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
-        .expect("/proc/sys/net/ipv4/ip_local_port_range");
-    range
-        .split_whitespace()
-        .next()
-        .and_then(|p| p.parse().ok())
-        .unwrap_or_else(|| panic!("ip_local_port_range: {range:?}"))
-}
-
 /// The crate root.
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

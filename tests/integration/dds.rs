@@ -33,7 +33,9 @@ use crate::common::{Proc, Watch};
 /// moved the range).
 #[test]
 fn ephemeral_ports_stay_clear_of_every_test_domain() {
-    let lowest = common::lowest_ephemeral_port();
+    let lowest = *dds::ephemeral_ports()
+        .expect("/proc/sys/net/ipv4/ip_local_port_range")
+        .start();
     let highest_dds_port = 7400 + 250 * u32::from(common::MAX_DOMAIN) + 249;
     assert!(
         lowest > highest_dds_port,
@@ -59,18 +61,9 @@ fn a_domain_inside_the_ephemeral_ports_is_warned_about_at_start() {
             .args(["node", "--config"])
             .arg(letters_config());
         let mut node = Proc::spawn(c, "node", domain, &log);
-        let started = Instant::now();
-        let text = loop {
-            let text = std::fs::read_to_string(&log).unwrap_or_default();
-            if text.contains("DDS Security") || started.elapsed() > Duration::from_secs(30) {
-                break text;
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        };
-        assert!(
-            text.contains("DDS Security"),
-            "the node did not start:\n{text}"
-        );
+        let started = common::wait_for_text(&log, "DDS Security", Duration::from_secs(30));
+        let text = std::fs::read_to_string(&log).unwrap_or_default();
+        assert!(started, "the node did not start:\n{text}");
         let line = format!("ROS_DOMAIN_ID {domain} uses UDP ports");
         assert_eq!(
             text.contains(&line)
