@@ -348,15 +348,19 @@ pub fn python_has_cyclonedds() -> bool {
 
 /// Waits until the file at `p` contains `needle`; false after `deadline`.
 pub fn wait_for_text(p: &Path, needle: &str, deadline: std::time::Duration) -> bool {
-    let t0 = std::time::Instant::now();
+    wait_for_text_from(p, 0, needle, deadline)
+}
+
+/// Waits until the file at `p` contains `needle` at or after byte `offset` (text written
+/// since a moment the caller noted with the file's length); false after `deadline`.
+pub fn wait_for_text_from(p: &Path, offset: usize, needle: &str, deadline: Duration) -> bool {
+    let t0 = Instant::now();
     while t0.elapsed() < deadline {
-        if std::fs::read_to_string(p)
-            .unwrap_or_default()
-            .contains(needle)
-        {
+        let text = std::fs::read_to_string(p).unwrap_or_default();
+        if text.get(offset..).is_some_and(|t| t.contains(needle)) {
             return true;
         }
-        std::thread::sleep(std::time::Duration::from_millis(20));
+        std::thread::sleep(Duration::from_millis(20));
     }
     false
 }
